@@ -1,0 +1,31 @@
+"""Single-photon LiDAR physics: sensor, photon simulation, reconstruction and SIV.
+
+Public API:
+
+- ``SensorParams``: bin width, pulse sigma, number of bins (and presets).
+- ``simulate_photons``: the measurement model of Algorithm 1 as sparse events.
+- ``histogram``: the dense (rows, cols, T) count cube of some events.
+- ``reconstruct``: ML depth / reflectivity / background from events.
+- ``synthesize_variant``: Algorithm 1 end to end (simulate, then reconstruct).
+- ``load_mat``: import a real capture stored as a sparse pixels x bins matrix.
+"""
+
+from spl_al.photon.events import PhotonEvents, histogram
+from spl_al.photon.io import load_mat
+from spl_al.photon.reconstruct import METHODS, Reconstruction, reconstruct
+from spl_al.photon.sensor import SPEED_OF_LIGHT_M_PER_S, SensorParams
+from spl_al.photon.simulate import simulate_photons
+from spl_al.photon.variant import synthesize_variant
+
+__all__ = [
+    "METHODS",
+    "SPEED_OF_LIGHT_M_PER_S",
+    "PhotonEvents",
+    "Reconstruction",
+    "SensorParams",
+    "histogram",
+    "load_mat",
+    "reconstruct",
+    "simulate_photons",
+    "synthesize_variant",
+]

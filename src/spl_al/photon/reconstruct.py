@@ -1,0 +1,306 @@
+"""Depth, reflectivity and background from photon events (METHOD.md section 1).
+
+The paper turns photons back into depth with SSPI (Yao et al. 2022), a learned
+sparse 3-D U-Net over the histogram cube. Its trained weights are not available
+here, so spl-al reconstructs with maximum likelihood under the measurement model
+instead:
+
+- ``"lmf"``: per-pixel log-matched filter. Each pixel's photons are scored under a
+  Gaussian IRF plus a uniform background, the ML time bin is taken among the
+  photons' own bins (the mode of the likelihood lies at a photon cluster), then
+  refined to sub-bin precision by a few EM steps (signal responsibilities).
+- ``"pooled"`` (default): neighbourhood-aided ML in the spirit of Rapp & Goyal's
+  unmixing. Every pixel's candidate depths are its 3x3 neighbours' LMF estimates,
+  scored with the photons of the whole 3x3 window (a robust first estimate); a
+  pixel keeps its own ML depth only when its own photons beat that estimate by a
+  margin of 1.5 single-photon log-likelihoods, and is refined around the chosen
+  depth with its own photons; finally pixels that fewer than two of their own
+  photons support get the 3x3 median (an edge-preserving median filter).
+
+Both are sparse: the cost grows with the number of photons, not with T, so they
+run on 10,000-bin real captures as on 1024-bin simulations.
+"""
+
+from __future__ import annotations
+
+from typing import NamedTuple
+
+import numpy as np
+
+from spl_al.photon.events import PhotonEvents
+from spl_al.photon.sensor import SensorParams
+
+METHODS = ("pooled", "lmf")
+_EM_STEPS = 3
+_OWN_MARGIN_PHOTONS = 1.5  # own evidence must beat the neighbourhood by this many photons
+
+
+class Reconstruction(NamedTuple):
+    """What ``reconstruct`` recovers; every field is a (rows, cols) image.
+
+    depth_m: depth in metres, NaN at voids (pixels without a usable photon).
+    reflectivity: estimated signal photons per pixel (the intensity image); 0 at voids.
+    background: estimated background photons per pixel over all T bins.
+    counts: photons detected per pixel (int64).
+    valid: bool, True where depth_m is finite.
+    """
+
+    depth_m: np.ndarray
+    reflectivity: np.ndarray
+    background: np.ndarray
+    counts: np.ndarray
+    valid: np.ndarray
+
+
+class _SortedPhotons:
+    """Photon bins sorted by (pixel, bin) under one int64 key, key = pixel * stride + bin.
+
+    The stride leaves a gap of more than one window between pixels, so a window
+    search around any key never reaches another pixel's photons.
+    """
+
+    def __init__(self, events: PhotonEvents, n_bins: int, window: int):
+        self.stride = n_bins + 2 * window + 2
+        key = events.pixel.astype(np.int64) * self.stride + events.bin
+        self.key = np.sort(key)
+        self.pixel = self.key // self.stride
+        self.bin = self.key - self.pixel * self.stride
+
+    def window(self, pixel: np.ndarray, lo_bin: np.ndarray, hi_bin: np.ndarray):
+        """(query, photon) index pairs for photons of ``pixel`` with lo_bin <= bin <= hi_bin."""
+        base = pixel.astype(np.int64) * self.stride
+        lo = np.searchsorted(self.key, base + lo_bin, side="left")
+        hi = np.searchsorted(self.key, base + hi_bin, side="right")
+        return _expand_ranges(lo, hi)
+
+
+def _expand_ranges(lo: np.ndarray, hi: np.ndarray):
+    """All pairs (q, j) with lo[q] <= j < hi[q], vectorised."""
+    n = np.maximum(hi - lo, 0)
+    q = np.repeat(np.arange(lo.size), n)
+    start = np.cumsum(n) - n
+    j = np.arange(q.size) - np.repeat(start - lo, n)
+    return q, j
+
+
+class _Likelihood:
+    """Per-photon log-likelihood gain phi(delta) = log(1 + kappa g(delta)).
+
+    For one pixel with signal s and background b per bin, log(s g(t - tau) + b) =
+    log b + log(1 + (s / b) g(t - tau)), so up to a constant the log-likelihood of a
+    depth tau is the sum of phi over the pixel's photons, and only photons within a
+    few sigma of tau contribute. g is the Gaussian IRF in bins with the rounding
+    variance added: sigma_eff^2 = sigma^2 + 1/12.
+    """
+
+    def __init__(self, sigma_bins: float, kappa: float):
+        self.sigma = float(np.sqrt(sigma_bins**2 + 1.0 / 12.0))
+        self.half_window = max(1, int(np.ceil(3.0 * self.sigma)))
+        self.kappa = float(kappa)
+        deltas = np.arange(-self.half_window, self.half_window + 1)
+        self.table = self.phi(deltas)
+        self.phi0 = float(self.phi(0.0))
+
+    def g(self, delta):
+        return np.exp(-0.5 * (np.asarray(delta) / self.sigma) ** 2) / (
+            np.sqrt(2 * np.pi) * self.sigma
+        )
+
+    def phi(self, delta):
+        return np.log1p(self.kappa * self.g(delta))
+
+    def responsibility(self, delta):
+        """Posterior probability that a photon at offset delta is signal."""
+        kg = self.kappa * self.g(delta)
+        return kg / (1.0 + kg)
+
+
+def _signal_to_background_per_bin(bins: np.ndarray, n_bins: int) -> float:
+    """kappa = (signal / background-per-bin) from the frame's summed time histogram.
+
+    Signal occupies few bins, so the median of the summed histogram estimates the
+    background level; kappa enters the score only through log(1 + kappa g).
+    """
+    if bins.size == 0:
+        return 1.0
+    summed = np.bincount(bins, minlength=n_bins)
+    background_fraction = np.clip(np.median(summed) * n_bins / bins.size, 1e-3, 0.999)
+    return (1.0 - background_fraction) / background_fraction * n_bins
+
+
+def _own_best(photons: _SortedPhotons, like: _Likelihood, n_pixels: int):
+    """Each pixel's best own photon bin under the LMF score, and that score.
+
+    Returns (best_bin, best_score), each (n_pixels,); best_bin is -1 at empty pixels.
+    """
+    w = like.half_window
+    q, j = photons.window(photons.pixel, photons.bin - w, photons.bin + w)
+    delta = photons.bin[j] - photons.bin[q]
+    score = np.bincount(q, weights=like.table[delta + w], minlength=photons.key.size)
+    best_bin = np.full(n_pixels, -1, dtype=np.int64)
+    best_score = np.zeros(n_pixels)
+    if score.size == 0:
+        return best_bin, best_score
+    starts = np.flatnonzero(np.r_[True, photons.pixel[1:] != photons.pixel[:-1]])
+    seg_len = np.diff(np.r_[starts, score.size])
+    seg_max = np.maximum.reduceat(score, starts)
+    is_max = np.flatnonzero(score >= np.repeat(seg_max, seg_len))
+    first = is_max[np.r_[True, photons.pixel[is_max[1:]] != photons.pixel[is_max[:-1]]]]
+    best_bin[photons.pixel[first]] = photons.bin[first]
+    best_score[photons.pixel[first]] = score[first]
+    return best_bin, best_score
+
+
+def _score_at(photons: _SortedPhotons, like: _Likelihood, pixel: np.ndarray, centre: np.ndarray):
+    """LMF score of each pixel's own photons at an integer bin ``centre``."""
+    w = like.half_window
+    q, j = photons.window(pixel, centre - w, centre + w)
+    delta = photons.bin[j] - centre[q]
+    return np.bincount(q, weights=like.table[delta + w], minlength=pixel.size)
+
+
+def _refine(photons: _SortedPhotons, like: _Likelihood, pixel: np.ndarray, centre: np.ndarray):
+    """Sub-bin ML depth by EM around ``centre``: tau <- sum(r t) / sum(r) over the
+    pixel's photons within the window, r the signal responsibility.
+
+    Returns (tau in bins, photons in the final window), each shaped like ``pixel``.
+    """
+    w = like.half_window
+    tau = centre.astype(np.float64)
+    n_in = np.zeros(pixel.size, dtype=np.int64)
+    for _ in range(_EM_STEPS):
+        q, j = photons.window(pixel, np.ceil(tau - w).astype(np.int64), np.floor(tau + w).astype(np.int64))
+        t = photons.bin[j].astype(np.float64)
+        r = like.responsibility(t - tau[q])
+        total = np.bincount(q, weights=r, minlength=pixel.size)
+        moment = np.bincount(q, weights=r * t, minlength=pixel.size)
+        n_in = np.bincount(q, minlength=pixel.size)
+        tau = np.where(total > 0, moment / np.maximum(total, 1e-300), tau)
+    return tau, n_in
+
+
+def _shift(image: np.ndarray, dy: int, dx: int, fill):
+    """out[y, x] = image[y + dy, x + dx], ``fill`` outside the frame."""
+    rows, cols = image.shape[-2:]
+    out = np.full_like(image, fill)
+    ys, yd = slice(max(dy, 0), rows + min(dy, 0)), slice(max(-dy, 0), rows + min(-dy, 0))
+    xs, xd = slice(max(dx, 0), cols + min(dx, 0)), slice(max(-dx, 0), cols + min(-dx, 0))
+    out[..., yd, xd] = image[..., ys, xs]
+    return out
+
+
+_OFFSETS_3 = [(dy, dx) for dy in (-1, 0, 1) for dx in (-1, 0, 1)]
+
+
+def _pooled_choice(photons, like, best_bin, best_score, shape):
+    """Neighbourhood-aided depth bin per pixel (-1 where the pixel has no photon)."""
+    rows, cols = shape
+    cand = best_bin.reshape(shape)
+    has_photons = cand >= 0
+    # partial[(oy, ox)][q] = score of q's photons at the candidate of pixel q + o, |o| <= 2.
+    partial = {}
+    pix_all = np.arange(rows * cols)
+    for oy in range(-2, 3):
+        for ox in range(-2, 3):
+            c = _shift(cand, oy, ox, -1).ravel()
+            use = (c >= 0) & has_photons.ravel()
+            s = np.zeros(rows * cols)
+            s[use] = _score_at(photons, like, pix_all[use], c[use])
+            partial[(oy, ox)] = s.reshape(shape)
+    # pooled[k][p] = score, over the 3x3 window of p, of the candidate of pixel p + o'_k.
+    pooled = np.full((len(_OFFSETS_3), rows, cols), -np.inf)
+    for k, (cy, cx) in enumerate(_OFFSETS_3):
+        total = np.zeros(shape)
+        for oy, ox in _OFFSETS_3:
+            total += _shift(partial[(cy - oy, cx - ox)], oy, ox, 0.0)
+        exists = _shift(cand, cy, cx, -1) >= 0
+        pooled[k][exists] = total[exists]
+    k_best = np.argmax(pooled, axis=0)
+    choice = np.full(shape, -1, dtype=np.int64)
+    for k, (cy, cx) in enumerate(_OFFSETS_3):
+        pick = k_best == k
+        choice[pick] = _shift(cand, cy, cx, -1)[pick]
+    choice[~has_photons] = -1
+    # Own evidence overrides the neighbourhood only by a clear margin.
+    own_at_choice = np.zeros(rows * cols)
+    sel = choice.ravel() >= 0
+    own_at_choice[sel] = _score_at(photons, like, pix_all[sel], choice.ravel()[sel])
+    keep_own = best_score - own_at_choice > _OWN_MARGIN_PHOTONS * like.phi0
+    return np.where(keep_own, best_bin, choice.ravel())
+
+
+def _median3(image: np.ndarray) -> np.ndarray:
+    """3x3 median over finite values (NaN = void is ignored)."""
+    stack = np.stack([_shift(image, dy, dx, np.nan) for dy, dx in _OFFSETS_3])
+    with np.errstate(all="ignore"):
+        import warnings
+
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", RuntimeWarning)
+            return np.nanmedian(stack, axis=0)
+
+
+def _mean3(image: np.ndarray, weight: np.ndarray) -> np.ndarray:
+    num = sum(_shift(image * weight, dy, dx, 0.0) for dy, dx in _OFFSETS_3)
+    den = sum(_shift(weight.astype(np.float64), dy, dx, 0.0) for dy, dx in _OFFSETS_3)
+    return np.where(den > 0, num / np.maximum(den, 1e-300), 0.0)
+
+
+def reconstruct(
+    events: PhotonEvents, shape: tuple[int, int], sensor: SensorParams, method: str = "pooled"
+) -> Reconstruction:
+    """Recover depth, reflectivity and background per pixel from photon events.
+
+    Maximises the Poisson log-likelihood of METHOD.md section 1 with a Gaussian IRF
+    (sigma from ``sensor``) and a uniform background; see the module docstring for
+    what ``"lmf"`` and ``"pooled"`` do and why SSPI is not used.
+
+    Args:
+        events: the photons of one frame (``is_signal`` is not read).
+        shape: (rows, cols) of the frame.
+        sensor: the timing the events were recorded with.
+        method: ``"pooled"`` (default) or ``"lmf"``.
+
+    Returns:
+        Reconstruction(depth_m, reflectivity, background, counts, valid), each (rows, cols).
+    """
+    if method not in METHODS:
+        raise ValueError(f"method must be one of {METHODS}, got {method!r}.")
+    rows, cols = (int(shape[0]), int(shape[1]))
+    if tuple(events.shape) != (rows, cols):
+        raise ValueError(f"shape {shape} does not match the events' frame shape {events.shape}.")
+    if events.bin.size and (events.bin.min() < 0 or events.bin.max() > sensor.t_max):
+        raise ValueError(
+            f"events hold time bins outside 0..{sensor.t_max}; pass the sensor they were recorded with."
+        )
+    n_pixels = rows * cols
+    like = _Likelihood(sensor.sigma_bins, _signal_to_background_per_bin(events.bin, sensor.n_bins))
+    photons = _SortedPhotons(events, sensor.n_bins, like.half_window)
+    counts = np.bincount(photons.pixel, minlength=n_pixels)
+
+    best_bin, best_score = _own_best(photons, like, n_pixels)
+    centre = best_bin if method == "lmf" else _pooled_choice(photons, like, best_bin, best_score, (rows, cols))
+    has = centre >= 0
+    pix = np.flatnonzero(has)
+    tau = np.full(n_pixels, np.nan)
+    n_in = np.zeros(n_pixels, dtype=np.int64)
+    tau[pix], n_in[pix] = _refine(photons, like, pix, centre[pix])
+
+    depth = sensor.bin_to_depth(tau).reshape(rows, cols)
+    n_in = n_in.reshape(rows, cols)
+    counts = counts.reshape(rows, cols)
+    if method == "pooled":
+        weak = has.reshape(rows, cols) & (n_in < 2)
+        depth = np.where(weak, _median3(depth), depth)
+
+    # Signal and background split per pixel: photons outside the peak window are
+    # background, spread uniformly over the T bins.
+    window = 2 * like.half_window + 1
+    background = (counts - n_in) * sensor.n_bins / max(sensor.n_bins - window, 1)
+    reflectivity = np.clip(n_in - background * window / sensor.n_bins, 0.0, None)
+    valid = np.isfinite(depth)
+    if method == "pooled":
+        reflectivity = _mean3(reflectivity, valid)
+        background = _mean3(background, np.ones_like(valid))
+    reflectivity = np.where(valid, reflectivity, 0.0)
+    return Reconstruction(depth, reflectivity, background, counts, valid)
