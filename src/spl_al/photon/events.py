@@ -59,7 +59,9 @@ def histogram(events: PhotonEvents, shape: tuple[int, int], sensor: SensorParams
     return counts.astype(dtype).reshape(rows, cols, sensor.n_bins)
 
 
-def events_from_counts(pixel: np.ndarray, bin_: np.ndarray, count: np.ndarray, shape) -> PhotonEvents:
+def events_from_counts(
+    pixel: np.ndarray, bin_: np.ndarray, count: np.ndarray, shape
+) -> PhotonEvents:
     """Expand (pixel, bin, count) triplets, as stored by a sparse histogram, into events."""
     count = np.asarray(count)
     if np.any(count < 0) or np.any(count != np.rint(count)):

@@ -9,7 +9,9 @@ import numpy as np
 from spl_al.photon.events import PhotonEvents, events_from_counts
 
 
-def load_mat(path, key: str = "spad", shape: tuple[int, int] = (64, 64), order: str = "F") -> PhotonEvents:
+def load_mat(
+    path, key: str = "spad", shape: tuple[int, int] = (64, 64), order: str = "F"
+) -> PhotonEvents:
     """Photon events of a MATLAB capture holding a sparse (pixels x bins) count matrix.
 
     The layout of Yao et al. 2022 (``shared/data/ugv45m``): ``spad`` is 4096 x 10000,
@@ -33,7 +35,8 @@ def load_mat(path, key: str = "spad", shape: tuple[int, int] = (64, 64), order: 
     rows, cols = shape
     if matrix.shape[0] != rows * cols:
         raise ValueError(
-            f"{path}: {key!r} has {matrix.shape[0]} rows, expected {rows * cols} pixels for shape {shape}."
+            f"{path}: {key!r} has {matrix.shape[0]} rows, expected {rows * cols} pixels "
+            f"for shape {shape}."
         )
     p = matrix.row.astype(np.int64)
     if order == "F":

@@ -32,7 +32,7 @@ from spl_al.photon.sensor import SensorParams
 
 METHODS = ("pooled", "lmf")
 _EM_STEPS = 3
-_OWN_MARGIN_PHOTONS = 1.5  # own evidence must beat the neighbourhood by this many photons
+_OWN_MARGIN_PHOTONS = 1.5  # at least: own evidence must beat the neighbourhood by this many photons
 
 
 class Reconstruction(NamedTuple):
@@ -115,17 +115,37 @@ class _Likelihood:
         return kg / (1.0 + kg)
 
 
-def _signal_to_background_per_bin(bins: np.ndarray, n_bins: int) -> float:
-    """kappa = (signal / background-per-bin) from the frame's summed time histogram.
+def _background_fraction(bins: np.ndarray, n_bins: int) -> float:
+    """Fraction of the frame's photons that are background, from the summed histogram.
 
-    Signal occupies few bins, so the median of the summed histogram estimates the
-    background level; kappa enters the score only through log(1 + kappa g).
+    Signal occupies few bins, so the median of the summed time histogram estimates
+    the background level per bin.
     """
     if bins.size == 0:
-        return 1.0
+        return 0.5
     summed = np.bincount(bins, minlength=n_bins)
-    background_fraction = np.clip(np.median(summed) * n_bins / bins.size, 1e-3, 0.999)
-    return (1.0 - background_fraction) / background_fraction * n_bins
+    return float(np.clip(np.median(summed) * n_bins / bins.size, 1e-3, 0.999))
+
+
+def _significant_cluster(background_per_window: np.ndarray, n_windows: float) -> np.ndarray:
+    """Smallest photon count c that background alone reaches in fewer than 5% of frames.
+
+    Background photons fall into ~T / window windows per pixel; the expected number
+    of windows holding >= c of them is n_windows * P(Poisson(mu) >= c). A pixel's own
+    cluster has to be larger than that to be told from chance coincidences.
+    """
+    mu = np.asarray(background_per_window, dtype=np.float64)
+    pmf = np.exp(-mu)
+    tail = 1.0 - pmf  # P(X >= 1)
+    c = np.ones(mu.shape)
+    for k in range(1, 64):
+        unresolved = n_windows * tail >= 0.05
+        if not unresolved.any():
+            break
+        c[unresolved] = k + 1
+        pmf = pmf * mu / k
+        tail = tail - pmf
+    return c
 
 
 def _own_best(photons: _SortedPhotons, like: _Likelihood, n_pixels: int):
@@ -169,7 +189,9 @@ def _refine(photons: _SortedPhotons, like: _Likelihood, pixel: np.ndarray, centr
     tau = centre.astype(np.float64)
     n_in = np.zeros(pixel.size, dtype=np.int64)
     for _ in range(_EM_STEPS):
-        q, j = photons.window(pixel, np.ceil(tau - w).astype(np.int64), np.floor(tau + w).astype(np.int64))
+        q, j = photons.window(
+            pixel, np.ceil(tau - w).astype(np.int64), np.floor(tau + w).astype(np.int64)
+        )
         t = photons.bin[j].astype(np.float64)
         r = like.responsibility(t - tau[q])
         total = np.bincount(q, weights=r, minlength=pixel.size)
@@ -192,8 +214,12 @@ def _shift(image: np.ndarray, dy: int, dx: int, fill):
 _OFFSETS_3 = [(dy, dx) for dy in (-1, 0, 1) for dx in (-1, 0, 1)]
 
 
-def _pooled_choice(photons, like, best_bin, best_score, shape):
-    """Neighbourhood-aided depth bin per pixel (-1 where the pixel has no photon)."""
+def _pooled_choice(photons, like, best_bin, best_score, shape, margin_photons):
+    """Neighbourhood-aided depth bin per pixel (-1 where the pixel has no photon).
+
+    ``margin_photons`` (n_pixels,) is how many single-photon log-likelihoods a pixel's
+    own best depth must beat the neighbourhood's choice by to be kept.
+    """
     rows, cols = shape
     cand = best_bin.reshape(shape)
     has_photons = cand >= 0
@@ -225,7 +251,7 @@ def _pooled_choice(photons, like, best_bin, best_score, shape):
     own_at_choice = np.zeros(rows * cols)
     sel = choice.ravel() >= 0
     own_at_choice[sel] = _score_at(photons, like, pix_all[sel], choice.ravel()[sel])
-    keep_own = best_score - own_at_choice > _OWN_MARGIN_PHOTONS * like.phi0
+    keep_own = best_score - own_at_choice > margin_photons * like.phi0
     return np.where(keep_own, best_bin, choice.ravel())
 
 
@@ -271,15 +297,29 @@ def reconstruct(
         raise ValueError(f"shape {shape} does not match the events' frame shape {events.shape}.")
     if events.bin.size and (events.bin.min() < 0 or events.bin.max() > sensor.t_max):
         raise ValueError(
-            f"events hold time bins outside 0..{sensor.t_max}; pass the sensor they were recorded with."
+            f"events hold time bins outside 0..{sensor.t_max}; "
+            "pass the sensor they were recorded with."
         )
     n_pixels = rows * cols
-    like = _Likelihood(sensor.sigma_bins, _signal_to_background_per_bin(events.bin, sensor.n_bins))
+    background_fraction = _background_fraction(events.bin, sensor.n_bins)
+    # kappa = signal / (background per bin) of a pixel, from the frame's split.
+    kappa = (1.0 - background_fraction) / background_fraction * sensor.n_bins
+    like = _Likelihood(sensor.sigma_bins, kappa)
     photons = _SortedPhotons(events, sensor.n_bins, like.half_window)
     counts = np.bincount(photons.pixel, minlength=n_pixels)
 
     best_bin, best_score = _own_best(photons, like, n_pixels)
-    centre = best_bin if method == "lmf" else _pooled_choice(photons, like, best_bin, best_score, (rows, cols))
+    if method == "lmf":
+        centre = best_bin
+    else:
+        window = 2 * like.half_window + 1
+        local_counts = _mean3(counts.reshape(rows, cols).astype(np.float64), np.ones((rows, cols)))
+        background_per_window = background_fraction * local_counts.ravel() * window / sensor.n_bins
+        margin = np.maximum(
+            _OWN_MARGIN_PHOTONS,
+            _significant_cluster(background_per_window, sensor.n_bins / window),
+        )
+        centre = _pooled_choice(photons, like, best_bin, best_score, (rows, cols), margin)
     has = centre >= 0
     pix = np.flatnonzero(has)
     tau = np.full(n_pixels, np.nan)

@@ -23,7 +23,9 @@ def check_scene(depth_m, reflectance, valid, sensor: SensorParams):
         valid = np.isfinite(depth)
     valid = np.asarray(valid)
     if valid.shape != depth.shape:
-        raise ValueError(f"valid has shape {valid.shape}, expected the shape of depth_m {depth.shape}.")
+        raise ValueError(
+            f"valid has shape {valid.shape}, expected the shape of depth_m {depth.shape}."
+        )
     if valid.dtype != bool:
         if not np.isin(valid, (0, 1)).all():
             raise ValueError("valid must be a boolean mask (or 0/1 values).")
@@ -68,7 +70,9 @@ def _check_condition(msppp, sbr) -> tuple[float, float]:
     msppp = float(msppp)
     sbr = float(sbr)
     if not (np.isfinite(msppp) and msppp > 0):
-        raise ValueError(f"msppp must be a finite number > 0 signal photons per pixel, got {msppp!r}.")
+        raise ValueError(
+            f"msppp must be a finite number > 0 signal photons per pixel, got {msppp!r}."
+        )
     if not sbr > 0 or np.isnan(sbr):
         raise ValueError(f"sbr must be > 0 (np.inf for no background), got {sbr!r}.")
     return msppp, sbr

@@ -1,0 +1,48 @@
+"""Command line of the photon engine.
+
+python -m spl_al.photon --demo OUT.png            # a scene under a grid of conditions
+python -m spl_al.photon --real CAPTURE.mat OUT.png  # reconstruct a real capture
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+
+from spl_al.photon.reconstruct import METHODS
+from spl_al.photon.sensor import SensorParams
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(
+        prog="python -m spl_al.photon", description=__doc__.splitlines()[0]
+    )
+    group = parser.add_mutually_exclusive_group(required=True)
+    group.add_argument("--demo", metavar="OUT.png", help="render the condition grid")
+    group.add_argument(
+        "--real", nargs=2, metavar=("CAPTURE.mat", "OUT.png"), help="reconstruct a real capture"
+    )
+    parser.add_argument("--method", choices=METHODS, default="pooled")
+    parser.add_argument("--seed", type=int, default=0)
+    args = parser.parse_args(argv)
+
+    from spl_al.photon import demo
+
+    try:
+        if args.demo:
+            demo.render_condition_grid(args.demo, seed=args.seed, method=args.method)
+            print(f"wrote {args.demo}")
+        else:
+            from spl_al.photon.io import load_mat
+
+            capture, out = args.real
+            demo.render_real_capture(load_mat(capture), SensorParams.ugv45m(), out, title=capture)
+            print(f"wrote {out}")
+    except (ValueError, OSError) as exc:
+        print(f"error: {exc}", file=sys.stderr)
+        return 2
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

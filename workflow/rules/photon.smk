@@ -1,0 +1,42 @@
+rule photon_conditions:
+    output:
+        report(
+            f"{RESULTS}/photon/conditions.png",
+            caption="../report/photon_conditions.rst",
+            category="Photon engine",
+        ),
+    log:
+        f"{RESULTS}/logs/photon/conditions.log",
+    conda:
+        "../envs/spl-al.yaml"
+    threads: 1
+    resources:
+        mem_mb=1000,
+        runtime=5,
+    params:
+        seed=config["photon"]["demo_seed"],
+        method=config["photon"]["reconstruct_method"],
+    shell:
+        "python -m spl_al.photon --demo {output} --seed {params.seed} "
+        "--method {params.method} > {log} 2>&1"
+
+
+rule photon_real_capture:
+    input:
+        Path(config["photon"].get("real_captures", "")) / "{capture}.mat",
+    output:
+        report(
+            f"{RESULTS}/photon/real/{{capture}}.png",
+            caption="../report/photon_real.rst",
+            category="Photon engine",
+        ),
+    log:
+        f"{RESULTS}/logs/photon/real_{{capture}}.log",
+    conda:
+        "../envs/spl-al.yaml"
+    threads: 1
+    resources:
+        mem_mb=1000,
+        runtime=5,
+    shell:
+        "python -m spl_al.photon --real {input} {output} > {log} 2>&1"
