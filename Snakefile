@@ -1,6 +1,10 @@
 # spl-al: condition-aware active learning for single-photon LiDAR.
 # Rules live in workflow/rules/, numerics in the spl_al library.
-from snakemake.utils import min_version, validate
+import sys
+
+from snakemake.utils import min_version
+
+from spl_al.config import check_config
 
 min_version("9.0")
 
@@ -8,7 +12,10 @@ min_version("9.0")
 configfile: "config/config.yaml"
 
 
-validate(config, "config/schema.yaml")
+try:
+    check_config(config, "config/schema.yaml")
+except ValueError as err:
+    sys.exit(f"Error: {err}")
 
 
 include: "workflow/rules/common.smk"
