@@ -1,0 +1,217 @@
+"""Per-round metrics records of active-learning runs: validation and the records frame.
+
+One record is what one round of one run (dataset x method x seed) writes, a JSON object:
+
+    {"dataset": "synth_cls", "method": "duis", "seed": 1, "round": 3,
+     "n_labeled": 200, "n_pool": 770, "n_total": 1100, "ratio": 0.1818,
+     "metric": "accuracy", "value": 0.873,
+     "per_level": {"high": 0.9, "medium": 0.88, "low": 0.84},
+     "synthetic_standin": false, "train_seconds": 12.3}
+
+``ratio`` is the labeling ratio n_labeled / n_total; ``value`` and the per-level values
+are test metrics in [0, 1]; ``per_level`` may be missing levels or be empty. The
+records frame has one row per record with ``per_level`` flattened into the columns
+``level_high``, ``level_medium``, ``level_low`` (NaN where a level is missing).
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+from collections.abc import Iterable, Mapping
+from numbers import Integral, Real
+from pathlib import Path
+
+import pandas as pd
+
+LEVELS = ("high", "medium", "low")
+"""MSPPP levels of the test split, in display order."""
+
+LEVEL_COLUMNS = tuple(f"level_{level}" for level in LEVELS)
+
+FRAME_COLUMNS = (
+    "dataset",
+    "method",
+    "seed",
+    "round",
+    "n_labeled",
+    "n_pool",
+    "n_total",
+    "ratio",
+    "metric",
+    "value",
+    *LEVEL_COLUMNS,
+    "synthetic_standin",
+    "train_seconds",
+    "source",
+)
+
+# A record's ratio may be rounded when written; beyond this it contradicts n_labeled / n_total.
+_RATIO_TOLERANCE = 1e-3
+
+
+def _is_int(x) -> bool:
+    return isinstance(x, Integral) and not isinstance(x, bool)
+
+
+def _is_real(x) -> bool:
+    return isinstance(x, Real) and not isinstance(x, bool) and math.isfinite(float(x))
+
+
+def _unit_interval(x) -> bool:
+    return _is_real(x) and 0.0 <= float(x) <= 1.0
+
+
+def validate_record(record, where: str = "record") -> dict:
+    """Check one metrics record against the contract and return its frame row.
+
+    ``where`` names the record in error messages (a file path, or ``records[3]``).
+    Raises ValueError with one sentence naming ``where`` and the missing or bad key.
+    Required: dataset, method, metric (non-empty strings), seed, round, n_labeled,
+    n_total (integers), value (in [0, 1]), synthetic_standin (bool). Optional, checked
+    when present: n_pool, ratio (must equal n_labeled / n_total), per_level, train_seconds.
+    """
+    if not isinstance(record, Mapping):
+        raise ValueError(f"{where}: expected a JSON object, got {type(record).__name__}.")
+
+    def bad(key: str, expected: str):
+        if key not in record:
+            return ValueError(f"{where}: missing key {key!r} ({expected}).")
+        return ValueError(f"{where}: key {key!r} must be {expected}, got {record[key]!r}.")
+
+    for key in ("dataset", "method", "metric"):
+        if not (isinstance(record.get(key), str) and record[key].strip()):
+            raise bad(key, "a non-empty string")
+    for key in ("seed", "round", "n_labeled"):
+        if not (_is_int(record.get(key)) and record[key] >= 0):
+            raise bad(key, "an integer >= 0")
+    if not (_is_int(record.get("n_total")) and record["n_total"] > 0):
+        raise bad("n_total", "an integer > 0")
+    if record["n_labeled"] > record["n_total"]:
+        raise bad("n_labeled", f"at most n_total = {record['n_total']}")
+    if not _unit_interval(record.get("value")):
+        raise bad("value", "a number in [0, 1]")
+    if not isinstance(record.get("synthetic_standin"), bool):
+        raise bad("synthetic_standin", "true or false")
+
+    ratio = record["n_labeled"] / record["n_total"]
+    if "ratio" in record and not (
+        _is_real(record["ratio"]) and abs(float(record["ratio"]) - ratio) <= _RATIO_TOLERANCE
+    ):
+        raise bad("ratio", f"n_labeled / n_total = {ratio:.4f}")
+    n_pool = record.get("n_pool")
+    if n_pool is not None and not (_is_int(n_pool) and n_pool >= 0):
+        raise bad("n_pool", "an integer >= 0")
+    train_seconds = record.get("train_seconds")
+    if train_seconds is not None and not (_is_real(train_seconds) and train_seconds >= 0):
+        raise bad("train_seconds", "a number of seconds >= 0")
+
+    per_level = record.get("per_level") or {}
+    if not isinstance(per_level, Mapping):
+        raise bad("per_level", "an object mapping MSPPP level to a metric")
+    for level, level_value in per_level.items():
+        if level not in LEVELS:
+            raise ValueError(
+                f"{where}: key 'per_level' has level {level!r}; expected one of {list(LEVELS)}."
+            )
+        if not _unit_interval(level_value):
+            raise ValueError(
+                f"{where}: key 'per_level' value for {level!r} must be a number in [0, 1], "
+                f"got {level_value!r}."
+            )
+
+    return {
+        "dataset": record["dataset"],
+        "method": record["method"],
+        "seed": int(record["seed"]),
+        "round": int(record["round"]),
+        "n_labeled": int(record["n_labeled"]),
+        "n_pool": int(n_pool) if n_pool is not None else -1,
+        "n_total": int(record["n_total"]),
+        # Recomputed so that every seed of a round gets exactly the same ratio.
+        "ratio": ratio,
+        "metric": record["metric"],
+        "value": float(record["value"]),
+        **{
+            col: float(per_level[level]) if level in per_level else math.nan
+            for level, col in zip(LEVELS, LEVEL_COLUMNS, strict=True)
+        },
+        "synthetic_standin": record["synthetic_standin"],
+        "train_seconds": float(train_seconds) if train_seconds is not None else math.nan,
+        "source": where,
+    }
+
+
+def _frame(rows: list[dict]) -> pd.DataFrame:
+    frame = pd.DataFrame(rows, columns=list(FRAME_COLUMNS))
+    key = ["dataset", "method", "seed", "round"]
+    dup = frame.duplicated(key, keep=False)
+    if dup.any():
+        first = frame[dup].sort_values(key).iloc[:2]
+        d, m, s, r = first.iloc[0][key]
+        raise ValueError(
+            f"duplicate records for dataset={d!r}, method={m!r}, seed={s}, round={r}: "
+            f"{first['source'].iloc[0]} and {first['source'].iloc[1]}."
+        )
+    for dataset, metrics in frame.groupby("dataset")["metric"].unique().items():
+        if len(metrics) > 1:
+            raise ValueError(f"dataset {dataset!r} mixes metrics {sorted(metrics)}; expected one.")
+    return frame.sort_values(key, ignore_index=True)
+
+
+def records_frame(records: Iterable[Mapping]) -> pd.DataFrame:
+    """Validate in-memory records and return the records frame (one row per record).
+
+    Columns: ``FRAME_COLUMNS``; sorted by dataset, method, seed, round. ``source`` is
+    ``records[i]``. A (dataset, method, seed, round) given twice is a ValueError.
+    """
+    rows = [validate_record(r, where=f"records[{i}]") for i, r in enumerate(records)]
+    if not rows:
+        raise ValueError("records is empty; expected at least one metrics record.")
+    return _frame(rows)
+
+
+def load_records(paths) -> pd.DataFrame:
+    """Read metrics JSON files (one record each) into the records frame.
+
+    ``paths``: one path or an iterable of paths. A file that is not JSON, or whose
+    record breaks the contract, raises a ValueError naming the file and the key.
+    """
+    if isinstance(paths, str | os.PathLike):
+        paths = [paths]
+    rows = []
+    for path in map(Path, paths):
+        try:
+            record = json.loads(path.read_text())
+        except (OSError, UnicodeDecodeError, json.JSONDecodeError) as exc:
+            raise ValueError(f"{path}: not a readable JSON metrics record ({exc}).") from None
+        rows.append(validate_record(record, where=str(path)))
+    if not rows:
+        raise ValueError("paths is empty; expected at least one metrics JSON file.")
+    return _frame(rows)
+
+
+def one_dataset(df: pd.DataFrame, dataset: str | None = None) -> pd.DataFrame:
+    """The records of one dataset: ``dataset`` if given, else the frame's only dataset."""
+    names = sorted(df["dataset"].unique())
+    if dataset is None:
+        if len(names) != 1:
+            raise ValueError(f"df holds datasets {names}; pass dataset= to pick one.")
+        return df
+    if dataset not in names:
+        raise ValueError(f"dataset {dataset!r} is not in df; it holds {names}.")
+    return df[df["dataset"] == dataset]
+
+
+def round_for_budget(df: pd.DataFrame, budget: int) -> int:
+    """The round whose number of labeled samples is closest to ``budget`` (earlier on ties).
+
+    Uses the median n_labeled of each round over all methods and seeds of ``df``.
+    """
+    if not (_is_int(budget) and budget >= 0):
+        raise ValueError(f"budget must be an integer number of labeled samples, got {budget!r}.")
+    per_round = df.groupby("round")["n_labeled"].median()
+    if per_round.empty:
+        raise ValueError("df has no records; cannot pick a round for a budget.")
+    return int((per_round - budget).abs().idxmin())
