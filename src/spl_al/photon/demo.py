@@ -123,13 +123,10 @@ def render_real_capture(events: PhotonEvents, sensor: SensorParams, path, title:
 
 
 def _save(fig, path):
-    import os
-
     import matplotlib.pyplot as plt
 
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = path.with_name(f".{path.name}.tmp")
-    fig.savefig(tmp, dpi=110, format=path.suffix.lstrip(".") or "png")
+    from spl_al.atomic import atomic_write
+
+    fmt = Path(path).suffix.lstrip(".") or "png"
+    atomic_write(path, lambda tmp: fig.savefig(tmp, dpi=110, format=fmt))
     plt.close(fig)
-    os.replace(tmp, path)

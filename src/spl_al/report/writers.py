@@ -6,36 +6,14 @@ target, so a killed job never leaves a half-written file that looks complete.
 
 from __future__ import annotations
 
-import json
-import os
-import tempfile
-from collections.abc import Callable
 from pathlib import Path
 
 import pandas as pd
 
+from spl_al.atomic import atomic_write, atomic_write_text, write_json
 from spl_al.report.render import render_latex, render_markdown
 
-
-def atomic_write(path, write: Callable[[Path], None]) -> Path:
-    """Call ``write(tmp)`` on a temporary file beside ``path``, then rename it onto ``path``."""
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
-    os.close(fd)
-    os.chmod(tmp, 0o644)  # mkstemp makes 0600; results are meant to be shared
-    try:
-        write(Path(tmp))
-        os.replace(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
-    return path
-
-
-def atomic_write_text(path, text: str) -> Path:
-    """Write ``text`` (UTF-8) to ``path`` atomically."""
-    return atomic_write(path, lambda tmp: tmp.write_text(text, encoding="utf-8"))
+__all__ = ["atomic_write", "atomic_write_text", "read_table", "write_json", "write_table"]
 
 
 def write_table(
@@ -79,9 +57,3 @@ def read_table(path) -> pd.DataFrame:
         row=lambda f: f["row"].fillna(""),
         col=lambda f: f["col"].fillna(""),
     )
-
-
-def write_json(obj, path) -> Path:
-    """Write a JSON-serialisable object (e.g. ``summary(df)``) atomically, NaN not allowed."""
-    text = json.dumps(obj, indent=2, allow_nan=False) + "\n"
-    return atomic_write_text(path, text)
