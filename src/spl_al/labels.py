@@ -1,0 +1,3 @@
+"""Label conventions shared by every part of spl_al."""
+
+IGNORE_INDEX = 255

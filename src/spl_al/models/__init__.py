@@ -1,0 +1,95 @@
+"""Networks for SPL depth images; each returns ``(logits, features)`` from one pass.
+
+Public API:
+
+- ``build_model(task, n_classes, arch=None, seed=None, **arch_params)``: a model for
+  "classification" (logits (B, C), features (B, d)) or "segmentation" (logits
+  (B, C, H, W), features (B, d, H, W)); its ``task``, ``n_classes`` and
+  ``feature_dim`` attributes say what it is.
+- ``to_input(depth_m, valid)``: the (B, 2, H, W) input (normalised depth, validity).
+- ``reset_parameters(model, seed)``: deterministic re-initialisation.
+- ``ARCHS``: the architectures per task (the first one is the task's default).
+"""
+
+from __future__ import annotations
+
+import torch
+from torch import nn
+
+from spl_al.models.classifier import ResNet, SmallCNN
+from spl_al.models.normalise import to_input
+from spl_al.models.segmenter import UNet
+
+TASKS = ("classification", "segmentation")
+ARCHS: dict[str, dict[str, type[nn.Module]]] = {
+    "classification": {"smallcnn": SmallCNN, "resnet18": ResNet},
+    "segmentation": {"unet": UNet},
+}
+
+
+def reset_parameters(model: nn.Module, seed: int) -> None:
+    """Re-initialise ``model`` in place from ``seed``, identically on every device.
+
+    The weights are drawn on the CPU (under a forked global RNG, which is left as it
+    was) and moved back to the model's device, so CPU and CUDA runs start equal.
+    """
+    if not hasattr(model, "init_weights"):
+        raise ValueError(
+            f"model {type(model).__name__} has no init_weights(); build it with build_model."
+        )
+    param = next(model.parameters(), None)
+    device = param.device if param is not None else torch.device("cpu")
+    model.cpu()
+    with torch.random.fork_rng(devices=[]):
+        torch.manual_seed(int(seed))
+        model.init_weights()
+    model.to(device)
+
+
+def build_model(
+    task: str, n_classes: int, arch: str | None = None, seed: int | None = None, **arch_params
+) -> nn.Module:
+    """Build a network for ``task`` with ``n_classes`` outputs.
+
+    Args:
+        task: "classification" or "segmentation".
+        n_classes: number of classes C (>= 2).
+        arch: a name in ``ARCHS[task]``; None picks the task's default
+            ("smallcnn" for classification, "unet" for segmentation).
+        seed: if given, the weights are initialised from it (``reset_parameters``) and
+            the global torch RNG is left untouched; otherwise torch's global RNG is used.
+        **arch_params: keyword arguments of the architecture (e.g. width, stem, depth).
+
+    Returns:
+        an ``nn.Module`` whose ``forward(x)`` maps (B, 2, H, W) to (logits, features).
+    """
+    if task not in ARCHS:
+        raise ValueError(f"task must be one of {TASKS}, got {task!r}.")
+    if int(n_classes) != n_classes or n_classes < 2:
+        raise ValueError(f"n_classes must be an integer >= 2, got {n_classes!r}.")
+    archs = ARCHS[task]
+    name = next(iter(archs)) if arch is None else arch
+    if name not in archs:
+        raise ValueError(f"arch for task {task!r} must be one of {sorted(archs)}, got {arch!r}.")
+    # with a seed, construction must not consume the global RNG either
+    with torch.random.fork_rng(devices=[], enabled=seed is not None):
+        try:
+            model = archs[name](int(n_classes), **arch_params)
+        except TypeError as exc:
+            raise ValueError(f"bad arch_params for {name!r}: {exc}.") from None
+    model.arch = name
+    if seed is not None:
+        reset_parameters(model, seed)
+    return model
+
+
+__all__ = [
+    "ARCHS",
+    "TASKS",
+    "ResNet",
+    "SmallCNN",
+    "UNet",
+    "build_model",
+    "reset_parameters",
+    "to_input",
+]

@@ -1,0 +1,147 @@
+"""Compute what acquisition strategies need from a trained model: ``compute_inputs``.
+
+This is the only place where a model meets the unlabeled pool. It takes images and
+index sets, never labels, and returns ``StrategyInputs`` holding only the parts the
+strategies asked for (``spl_al.strategies.inputs.NEEDS``):
+
+- Only the observed image of each unlabeled group is run through the model, unless
+  a need in ``GROUP_NEEDS`` (DUIS's group features and margin/inconsistency) asks
+  for all M+1 images; labeled groups are run only for "labeled_features".
+- Segmentation memory stays bounded: per-pixel probabilities and features live
+  only within one batch and are reduced there to per-group quantities, exactly:
+  entropy, margin, gamma and d are means over the observed image's valid pixels
+  (the pixels the oracle labels; a variant's prediction counts at those pixels even
+  where the variant itself is void), features are averaged over the same pixels,
+  and BADGE's embedding is the pixel-averaged C x d gradient matrix. Nothing per
+  pixel is stored, so the output is O(groups x (C x d)) whatever the image size.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import torch
+from torch import nn
+
+from spl_al.strategies.badge import gradient_embedding_factors, pixel_gradient_embedding
+from spl_al.strategies.duis import margin_and_inconsistency
+from spl_al.strategies.entropy import entropy_score
+from spl_al.strategies.inputs import GROUP_NEEDS, StrategyInputs, _index_array, check_needs
+from spl_al.strategies.margin import margin_score
+from spl_al.training.predict import iter_forward, pool_pixels
+
+DEFAULT_BATCH_IMAGES = {"classification": 256, "segmentation": 16}
+
+
+def _group_outputs(model, depth_m, valid, idx, n_images, device):
+    """Forward the first ``n_images`` images of groups ``idx`` in one pass.
+
+    Returns probs (b, G, units, C) float32, pixel features (b, G, units, d) or None,
+    pooled features (b, G, d), unit mask (b, units) or None (classification).
+    """
+    b = len(idx)
+    d = np.asarray(depth_m[idx, :n_images]).reshape(b * n_images, *depth_m.shape[2:])
+    v = np.asarray(valid[idx, :n_images]).reshape(b * n_images, *depth_m.shape[2:])
+    ((_, probs, feats, vmask),) = iter_forward(model, d, v, device, batch_size=len(d))
+    if model.task == "classification":
+        return (
+            probs.view(b, n_images, 1, -1).cpu().numpy(),
+            None,
+            feats.view(b, n_images, -1).cpu().numpy(),
+            None,
+        )
+    c, dim = probs.shape[1], feats.shape[1]
+    obs_valid = vmask.view(b, n_images, -1)[:, 0]  # (b, units)
+    pooled = pool_pixels(feats, obs_valid.repeat_interleave(n_images, 0).view_as(vmask))
+    to_units = lambda t, k: t.reshape(b, n_images, k, -1).transpose(2, 3)  # noqa: E731
+    return (
+        to_units(probs, c).cpu().numpy(),
+        to_units(feats, dim).cpu().numpy(),
+        pooled.view(b, n_images, dim).cpu().numpy(),
+        obs_valid.cpu().numpy(),
+    )
+
+
+def compute_inputs(
+    model: nn.Module,
+    needs,
+    depth_m,
+    valid,
+    unlabeled_idx,
+    labeled_idx,
+    device: str | torch.device | None = None,
+    batch_size: int | None = None,
+) -> StrategyInputs:
+    """The inputs a strategy with ``needs`` selects from, computed with ``model``.
+
+    Args:
+        model: a trained model from ``spl_al.models.build_model``.
+        needs: names from ``NEEDS`` (e.g. ``strategy.needs``).
+        depth_m, valid: (N, G, H, W) images of every training group, observed image
+            first, G = M + 1 (G = 1 without variants); numpy arrays or memory maps.
+        unlabeled_idx, labeled_idx: disjoint training-set indices.
+        device: "auto"/None, "cpu" or "cuda".
+        batch_size: images per forward pass (default 256 for classification,
+            16 for segmentation).
+
+    Returns:
+        ``StrategyInputs`` with the index sets and exactly the needed parts.
+    """
+    needs = check_needs(needs)
+    if np.ndim(depth_m) != 4 or np.shape(valid) != np.shape(depth_m):
+        raise ValueError(
+            f"depth_m and valid must both be (N, G, H, W), got {np.shape(depth_m)} "
+            f"and {np.shape(valid)}."
+        )
+    n_train = depth_m.shape[0]
+    unl = _index_array("unlabeled_idx", unlabeled_idx)
+    lab = _index_array("labeled_idx", labeled_idx)
+    for name, idx in (("unlabeled_idx", unl), ("labeled_idx", lab)):
+        if idx.size and idx.max() >= n_train:
+            raise ValueError(f"{name} must index the {n_train} training groups, found {idx.max()}.")
+    task = model.task
+    batch_size = batch_size or DEFAULT_BATCH_IMAGES[task]
+    n_images = depth_m.shape[1] if needs & GROUP_NEEDS else 1
+    per_batch = max(1, batch_size // n_images)
+    parts: dict[str, list[np.ndarray]] = {}
+
+    def add(name: str, value: np.ndarray) -> None:
+        parts.setdefault(name, []).append(value)
+
+    scored = needs - {"labeled_features"}
+    for s in range(0, len(unl) if scored else 0, per_batch):
+        probs, pix_feats, feats, units_valid = _group_outputs(
+            model, depth_m, valid, unl[s : s + per_batch], n_images, device
+        )
+        if "entropy" in needs:
+            add("entropy", entropy_score(probs[:, 0], units_valid))
+        if "margin" in needs:
+            add("margin", margin_score(probs[:, 0], units_valid))
+        if "margin_inconsistency" in needs:
+            gamma, d = margin_and_inconsistency(probs, units_valid)
+            add("gamma", gamma)
+            add("inconsistency", d)
+        if "features" in needs:
+            add("features", feats[:, 0])
+        if "group_features" in needs:
+            add("group_features", feats.mean(axis=1))
+        if "grad_embedding" in needs:
+            if task == "classification":
+                q, h = gradient_embedding_factors(probs[:, 0, 0], feats[:, 0])
+                add("grad_q", q)
+                add("grad_h", h)
+            else:
+                add(
+                    "grad_embedding",
+                    pixel_gradient_embedding(probs[:, 0], pix_feats[:, 0], units_valid),
+                )
+    if "labeled_features" in needs:
+        dim = getattr(model, "feature_dim", 0)
+        parts["labeled_features"] = [np.zeros((0, dim), dtype=np.float32)]
+        for s in range(0, len(lab), batch_size):
+            outputs = _group_outputs(model, depth_m, valid, lab[s : s + batch_size], 1, device)
+            add("labeled_features", outputs[2][:, 0])
+    arrays = {}
+    for name, chunks in parts.items():
+        value = np.concatenate(chunks)
+        arrays[name] = value.astype(np.float32) if value.ndim == 2 else value.astype(np.float64)
+    return StrategyInputs(unlabeled_idx=unl, labeled_idx=lab, **arrays)

@@ -1,0 +1,23 @@
+"""Syn+Diversity (the paper's ablation): DUIS's candidate pool ranked by uncertainty alone."""
+
+from __future__ import annotations
+
+from spl_al.strategies.base import register
+from spl_al.strategies.duis import DUISStrategy
+
+
+@register
+class DiversityStrategy(DUISStrategy):
+    """DUIS with alpha = 0: k-means candidate pool, then the smallest margins gamma.
+
+    Args:
+        n_cand: N_cand; eps, max_iter: as DUIS.
+    """
+
+    name = "diversity"
+
+    def __init__(self, n_cand: int = 500, eps: float = 1e-8, max_iter: int = 100) -> None:
+        super().__init__(n_cand=n_cand, alpha=0.0, eps=eps, max_iter=max_iter)
+
+    def params(self) -> dict:
+        return {"n_cand": self.n_cand, "eps": self.eps}

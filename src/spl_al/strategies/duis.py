@@ -1,0 +1,186 @@
+"""DUIS, the paper's Algorithm 2: diversity-constrained, condition-aware acquisition.
+
+1. phi_i = mean_m phi(I_i^(m)): group features averaged over the M+1 images.
+2. k-means with N_cand clusters over {phi_i} of the unlabeled pool; the group
+   nearest each centre (each group used once) forms the candidate pool C.
+3. For each candidate, over its task units u, with q_m(u) the class probabilities
+   of image m and qbar(u) = mean_m q_m(u):
+       gamma_i = mean_u [ qbar(u, top1) - qbar(u, top2) ]       (small = uncertain)
+       d_i     = mean_u mean_m KL( q_m(u) || qbar(u) )          (inconsistency)
+4. Min-max normalise within C: x~ = (x - min x) / (max x - min x + eps).
+5. UIS_alpha = alpha * d~ + (1 - alpha) * (1 - gamma~); query the top N_batch of C.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from spl_al.strategies.base import Strategy, register
+from spl_al.strategies.inputs import StrategyInputs
+from spl_al.strategies.kmeans import kmeans, sq_distances
+from spl_al.strategies.units import check_points, check_probs, top_gap, top_k, unit_mean
+
+# elements of the centres x points distance block computed at once (float32: 32 MB)
+_CHUNK_ELEMENTS = 1 << 23
+
+
+def margin_and_inconsistency(probs, valid=None) -> tuple[np.ndarray, np.ndarray]:
+    """DUIS's margin gamma and inconsistency d of each group (steps 3 above).
+
+    Args:
+        probs: (groups, M+1, units, classes) class probabilities of every image of each
+            group (observed first; one unit per image for classification).
+        valid: optional (groups, units) bool mask of the units that count (for
+            segmentation: the observed image's valid pixels, where the label applies).
+
+    Returns:
+        gamma, d: (groups,) float64. gamma = mean over valid units of the top1 - top2
+        gap of the mean prediction qbar; d = mean over valid units and over the M+1
+        images of KL(q_m || qbar) = sum_c q_m,c log(q_m,c / qbar_c) (terms with
+        q_m,c = 0 are 0). A group without valid units gets NaN for both.
+    """
+    p = check_probs(probs, 4)
+    qbar = p.mean(axis=1)  # (groups, units, C)
+    gamma = unit_mean(top_gap(qbar), valid)
+    # q_m > 0 implies qbar >= q_m / (M+1) > 0, so the logs below are finite where used
+    positive = p > 0
+    log_ratio = np.log(np.where(positive, p, 1.0)) - np.log(
+        np.where(positive, np.broadcast_to(qbar[:, None], p.shape), 1.0)
+    )
+    kl = np.maximum(np.sum(np.where(positive, p * log_ratio, 0.0), axis=-1), 0.0)
+    d = unit_mean(kl.mean(axis=1), valid)
+    return gamma, d
+
+
+def _min_max(x: np.ndarray, eps: float) -> np.ndarray:
+    if x.size == 0:
+        return x
+    return (x - np.nanmin(x)) / (np.nanmax(x) - np.nanmin(x) + eps)
+
+
+def uis(gamma, d, alpha: float = 0.5, eps: float = 1e-8) -> np.ndarray:
+    """UIS_alpha = alpha * d~ + (1 - alpha) * (1 - gamma~), min-max normalised over the arrays.
+
+    Args:
+        gamma, d: (n,) margins and inconsistencies of the candidate pool.
+        alpha: weight of inconsistency in [0, 1] (0: uncertainty only).
+        eps: > 0, added to the normalisers' denominators (all-equal values give x~ = 0).
+
+    Returns:
+        (n,) float64 scores, higher = more informative; NaN where an input is NaN.
+    """
+    if not 0.0 <= alpha <= 1.0:
+        raise ValueError(f"alpha must be in [0, 1], got {alpha!r}.")
+    if not eps > 0:
+        raise ValueError(f"eps must be > 0, got {eps!r}.")
+    g = np.asarray(gamma, dtype=np.float64)
+    dd = np.asarray(d, dtype=np.float64)
+    if g.ndim != 1 or g.shape != dd.shape:
+        raise ValueError(f"gamma and d must be 1-D of equal length, got {g.shape} and {dd.shape}.")
+    if g.size and np.isnan(g).all():
+        return np.full(g.shape, np.nan)
+    return alpha * _min_max(dd, eps) + (1.0 - alpha) * (1.0 - _min_max(g, eps))
+
+
+def nearest_unique(points: np.ndarray, centres: np.ndarray) -> np.ndarray:
+    """For each centre a distinct point, as near to it as possible: (n_centres,) positions.
+
+    Centres are served in order of their nearest distance (closest first, stable);
+    each takes its nearest point not yet taken. Only each centre's n_centres nearest
+    points are kept (enough, as at most n_centres - 1 are taken before it).
+    """
+    x = check_points(points, "points")
+    c = check_points(centres, "centres")
+    n, m = len(x), len(c)
+    if m > n:
+        raise ValueError(f"cannot give {m} centres distinct points out of {n}.")
+    x_sq = np.einsum("ij,ij->i", x, x)
+    near_idx = np.empty((m, m), dtype=np.int64)
+    near_d2 = np.empty((m, m), dtype=np.float32)
+    rows = max(1, _CHUNK_ELEMENTS // n)
+    for s in range(0, m, rows):
+        cc = c[s : s + rows]
+        d2 = sq_distances(cc, np.einsum("ij,ij->i", cc, cc), x, x_sq)  # (rows, n)
+        part = (
+            np.argpartition(d2, m - 1, axis=1)[:, :m]
+            if m < n
+            else np.tile(np.arange(n), (len(cc), 1))
+        )
+        pd = np.take_along_axis(d2, part, axis=1)
+        order = np.lexsort((part, pd), axis=1)  # by distance, then by position
+        near_idx[s : s + rows] = np.take_along_axis(part, order, axis=1)
+        near_d2[s : s + rows] = np.take_along_axis(pd, order, axis=1)
+    taken = np.zeros(n, dtype=bool)
+    out = np.empty(m, dtype=np.int64)
+    for j in np.argsort(near_d2[:, 0], kind="stable"):
+        for i in near_idx[j]:
+            if not taken[i]:
+                taken[i] = True
+                out[j] = i
+                break
+    return out
+
+
+def candidate_pool(
+    features, n_cand: int, rng: np.random.Generator, max_iter: int = 100
+) -> np.ndarray:
+    """DUIS's candidate pool: the group nearest each of N_cand k-means centres.
+
+    Args:
+        features: (n, d) group features phi_i of the unlabeled pool.
+        n_cand: N_cand; a pool of n <= N_cand groups is returned whole.
+        rng: seeds k-means (greedy k-means++ initialisation, one run).
+        max_iter: Lloyd iterations at most.
+
+    Returns:
+        (min(n_cand, n),) distinct positions into ``features``.
+    """
+    x = check_points(features, "group_features")
+    n = len(x)
+    if n_cand >= n:
+        return np.arange(n)
+    centres = kmeans(x, n_cand, rng, max_iter=max_iter)
+    return nearest_unique(x, centres)
+
+
+@register
+class DUISStrategy(Strategy):
+    """DUIS: k-means candidate pool on group features, ranked by UIS_alpha.
+
+    Args:
+        n_cand: N_cand, the candidate pool size (raised to the budget when the
+            budget is larger, so the pool can fill it).
+        alpha: weight of inconsistency (0.5 in the paper).
+        eps: the min-max normalisation's epsilon.
+        max_iter: k-means iterations at most.
+    """
+
+    name = "duis"
+    needs = frozenset({"group_features", "margin_inconsistency"})
+
+    def __init__(
+        self, n_cand: int = 500, alpha: float = 0.5, eps: float = 1e-8, max_iter: int = 100
+    ):
+        if isinstance(n_cand, bool) or not isinstance(n_cand, int | np.integer) or n_cand < 1:
+            raise ValueError(f"n_cand must be an integer >= 1, got {n_cand!r}.")
+        uis(np.zeros(1), np.zeros(1), alpha, eps)  # validates alpha and eps
+        if int(max_iter) < 1:
+            raise ValueError(f"max_iter must be >= 1, got {max_iter!r}.")
+        self.n_cand, self.alpha, self.eps, self.max_iter = (
+            int(n_cand),
+            float(alpha),
+            float(eps),
+            int(max_iter),
+        )
+
+    def params(self) -> dict:
+        return {"n_cand": self.n_cand, "alpha": self.alpha, "eps": self.eps}
+
+    def candidates(self, inputs: StrategyInputs, k: int, rng: np.random.Generator) -> np.ndarray:
+        """Positions of the candidate pool C for a budget of ``k``."""
+        return candidate_pool(inputs.group_features, max(self.n_cand, k), rng, self.max_iter)
+
+    def _select(self, inputs: StrategyInputs, k: int, rng: np.random.Generator) -> np.ndarray:
+        pool = self.candidates(inputs, k, rng)
+        score = uis(inputs.gamma[pool], inputs.inconsistency[pool], self.alpha, self.eps)
+        return pool[top_k(score, k, rng)]

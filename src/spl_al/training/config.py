@@ -1,0 +1,146 @@
+"""Training configuration, device choice and the deterministic-execution context."""
+
+from __future__ import annotations
+
+import os
+from collections.abc import Iterator, Mapping
+from contextlib import contextmanager
+from dataclasses import asdict, dataclass, fields
+
+import torch
+
+# cuBLAS is only deterministic with a fixed workspace; this must be set before the
+# first cuBLAS handle exists, hence at import (a user's own value is kept).
+os.environ.setdefault("CUBLAS_WORKSPACE_CONFIG", ":4096:8")
+
+
+@dataclass(frozen=True)
+class TrainConfig:
+    """How to train one model; independent of the seed (passed to ``train``).
+
+    Attributes:
+        epochs: passes over the training images (used when ``steps`` is None).
+        steps: total optimiser steps; when set it overrides ``epochs``.
+        min_steps: at least this many steps (more epochs when the labeled set is
+            small, so early rounds are not under-trained); 0 disables.
+        batch_size: images per step (the whole set when it is smaller).
+        lr: peak learning rate of SGD.
+        momentum, nesterov, weight_decay: SGD settings (decay on every parameter).
+        cosine: cosine annealing from ``lr`` to 0 over all steps (else constant).
+        hflip: random horizontal flips (image and mask) as augmentation.
+        from_scratch: re-initialise the weights from the seed before training.
+        channels_last: NHWC memory layout (about 2x faster convolutions on CPU).
+        log_every: write a progress line every this many epochs (0: none).
+        num_threads: ``torch.set_num_threads`` for training and prediction
+            (None: leave torch's choice; set it to the threads a job was given).
+        eval_batch_size: images per forward pass in prediction and evaluation.
+    """
+
+    epochs: int | None = 30
+    steps: int | None = None
+    min_steps: int = 0
+    batch_size: int = 128
+    lr: float = 0.05
+    momentum: float = 0.9
+    nesterov: bool = False
+    weight_decay: float = 5e-4
+    cosine: bool = True
+    hflip: bool = True
+    from_scratch: bool = True
+    channels_last: bool = True
+    log_every: int = 1
+    num_threads: int | None = None
+    eval_batch_size: int = 256
+
+    def __post_init__(self) -> None:
+        def positive_int(name: str, value, allow_none: bool = False, minimum: int = 1) -> None:
+            if value is None and allow_none:
+                return
+            if isinstance(value, bool) or not isinstance(value, int) or value < minimum:
+                raise ValueError(
+                    f"TrainConfig.{name} must be an integer >= {minimum}, got {value!r}."
+                )
+
+        positive_int("epochs", self.epochs, allow_none=True)
+        positive_int("steps", self.steps, allow_none=True)
+        if self.epochs is None and self.steps is None:
+            raise ValueError("TrainConfig needs epochs or steps; both are None.")
+        positive_int("min_steps", self.min_steps, minimum=0)
+        positive_int("batch_size", self.batch_size)
+        positive_int("log_every", self.log_every, minimum=0)
+        positive_int("num_threads", self.num_threads, allow_none=True)
+        positive_int("eval_batch_size", self.eval_batch_size)
+        for name in ("lr", "momentum", "weight_decay"):
+            value = getattr(self, name)
+            if isinstance(value, bool) or not isinstance(value, int | float) or not value >= 0:
+                raise ValueError(f"TrainConfig.{name} must be a number >= 0, got {value!r}.")
+        for name in ("nesterov", "cosine", "hflip", "from_scratch", "channels_last"):
+            if not isinstance(getattr(self, name), bool):
+                raise ValueError(
+                    f"TrainConfig.{name} must be true or false, got {getattr(self, name)!r}."
+                )
+
+    @classmethod
+    def from_dict(cls, params: Mapping | None) -> TrainConfig:
+        """Config from a mapping (e.g. a YAML section); missing keys keep their defaults."""
+        params = dict(params or {})
+        known = {f.name for f in fields(cls)}
+        unknown = sorted(set(params) - known)
+        if unknown:
+            raise ValueError(
+                f"unknown TrainConfig keys {unknown}; expected some of {sorted(known)}."
+            )
+        return cls(**params)
+
+    @classmethod
+    def paper(cls) -> TrainConfig:
+        """The paper's protocol: 200 epochs, SGD momentum 0.9, lr 0.1, batch 512, cosine."""
+        return cls(epochs=200, batch_size=512, lr=0.1, momentum=0.9, weight_decay=5e-4)
+
+    def to_dict(self) -> dict:
+        return asdict(self)
+
+    def total_steps(self, n_images: int) -> int:
+        """Optimiser steps for a training set of ``n_images`` images."""
+        per_epoch = max(1, n_images // self.batch_size)
+        steps = self.steps if self.steps is not None else self.epochs * per_epoch
+        return max(steps, self.min_steps)
+
+
+def resolve_device(name: str | torch.device | None = None) -> torch.device:
+    """The torch device for ``name``: None or "auto" picks CUDA when available, else CPU.
+
+    "cpu", "cuda" and "cuda:N" are taken as given; asking for CUDA without it is an error.
+    """
+    if isinstance(name, torch.device):
+        name = str(name)
+    if name is None or name == "auto":
+        return torch.device("cuda" if torch.cuda.is_available() else "cpu")
+    if not isinstance(name, str) or not (name == "cpu" or name.split(":")[0] == "cuda"):
+        raise ValueError(f"device must be 'auto', 'cpu', 'cuda' or 'cuda:N', got {name!r}.")
+    if name.startswith("cuda") and not torch.cuda.is_available():
+        raise ValueError(f"device {name!r} was requested but CUDA is not available here.")
+    return torch.device(name)
+
+
+@contextmanager
+def deterministic_algorithms() -> Iterator[None]:
+    """Run the block with torch's deterministic kernels (cuDNN too), then restore.
+
+    ``warn_only``: an op without a deterministic kernel warns instead of failing.
+    """
+    previous = (
+        torch.are_deterministic_algorithms_enabled(),
+        torch.is_deterministic_algorithms_warn_only_enabled(),
+        torch.backends.cudnn.deterministic,
+        torch.backends.cudnn.benchmark,
+    )
+    torch.use_deterministic_algorithms(True, warn_only=True)
+    torch.backends.cudnn.deterministic = True
+    torch.backends.cudnn.benchmark = False
+    try:
+        yield
+    finally:
+        torch.use_deterministic_algorithms(previous[0], warn_only=previous[1])
+        torch.backends.cudnn.deterministic = previous[2]
+        torch.backends.cudnn.benchmark = previous[3]

@@ -1,0 +1,244 @@
+"""Fit a classifier or segmenter with SGD, deterministically from a seed."""
+
+from __future__ import annotations
+
+import math
+import os
+import sys
+import time
+from typing import TextIO
+
+import numpy as np
+import torch
+import torch.nn.functional as F
+from torch import nn
+
+from spl_al.labels import IGNORE_INDEX
+from spl_al.models import reset_parameters, to_input
+from spl_al.training.config import TrainConfig, deterministic_algorithms, resolve_device
+
+
+def masked_cross_entropy(logits: torch.Tensor, target: torch.Tensor) -> torch.Tensor:
+    """Mean of -log softmax(logits)[target] over units whose target is not IGNORE_INDEX.
+
+    Args:
+        logits: (B, C) or (B, C, H, W).
+        target: (B,) or (B, H, W) int64 class indices, IGNORE_INDEX where ignored.
+
+    Written with a one-hot mask instead of ``F.cross_entropy`` because CUDA's NLL
+    loss kernels are not deterministic; returns 0 when every unit is ignored.
+    """
+    logp = F.log_softmax(logits.float(), dim=1)
+    classes = torch.arange(logits.shape[1], device=logits.device)
+    onehot = target.unsqueeze(1) == classes.view(1, -1, *([1] * (logits.ndim - 2)))
+    nll = -torch.where(onehot, logp, 0.0).sum(dim=1)
+    kept = (target != IGNORE_INDEX).sum()
+    return nll.sum() / kept.clamp_min(1)
+
+
+def check_targets(task: str, targets, n_images: int, image_shape, n_classes: int) -> np.ndarray:
+    """Validate targets: (n,) class indices, or (n, H, W) masks with IGNORE_INDEX; int64 copy."""
+    t = np.asarray(targets)
+    expected = (n_images,) if task == "classification" else (n_images, *image_shape)
+    if t.shape != expected:
+        raise ValueError(f"targets must have shape {expected} for {task}, got {t.shape}.")
+    if t.size and not np.issubdtype(t.dtype, np.integer):
+        raise ValueError(f"targets must be integer class indices, got dtype {t.dtype}.")
+    t = t.astype(np.int64)
+    ok = (t >= 0) & (t < n_classes)
+    if task == "segmentation":
+        ok |= t == IGNORE_INDEX
+    if not ok.all():
+        bad = t[~ok][0]
+        raise ValueError(
+            f"targets must lie in [0, {n_classes})"
+            + (f" or be {IGNORE_INDEX}" if task == "segmentation" else "")
+            + f", found {bad}."
+        )
+    return t
+
+
+def flatten_groups(depth_m, valid, targets, variants: bool = True):
+    """Images and targets for training from labeled groups.
+
+    Args:
+        depth_m, valid: (n, G, H, W) groups, observed image first.
+        targets: (n,) labels or (n, H, W) masks, one per group.
+        variants: train on all G images of a group (each with the group's label or
+            mask), else on the observed image only.
+
+    Returns:
+        depth_m, valid: (n * G, H, W) (or (n, H, W)), group-major; targets repeated to match.
+    """
+    depth_m, valid, targets = np.asarray(depth_m), np.asarray(valid), np.asarray(targets)
+    if depth_m.ndim != 4 or valid.shape != depth_m.shape or len(targets) != len(depth_m):
+        raise ValueError(
+            f"expected (n, G, H, W) depth_m and valid and n targets, got {depth_m.shape}, "
+            f"{valid.shape} and {targets.shape}."
+        )
+    g = depth_m.shape[1] if variants else 1
+    shape = depth_m.shape[2:]
+    return (
+        depth_m[:, :g].reshape(-1, *shape),
+        valid[:, :g].reshape(-1, *shape),
+        np.repeat(targets, g, axis=0),
+    )
+
+
+class ProgressLog:
+    """Writes progress lines to stderr (None), an open text stream, or a file path (appended)."""
+
+    def __init__(self, log: str | os.PathLike | TextIO | None) -> None:
+        self._own = False
+        if log is None:
+            self.stream = sys.stderr
+        elif hasattr(log, "write"):
+            self.stream = log
+        else:
+            self.stream = open(log, "a", encoding="utf-8")  # noqa: SIM115 - closed in close()
+            self._own = True
+
+    def line(self, text: str) -> None:
+        self.stream.write(text + "\n")
+        self.stream.flush()
+
+    def close(self) -> None:
+        if self._own:
+            self.stream.close()
+
+
+def train(
+    model: nn.Module,
+    depth_m,
+    valid,
+    targets,
+    cfg: TrainConfig | dict | None = None,
+    seed: int = 0,
+    device: str | torch.device | None = None,
+    log: str | os.PathLike | TextIO | None = None,
+) -> nn.Module:
+    """Train ``model`` on images and their labels (or masks); returns the model.
+
+    Mini-batch SGD with momentum and weight decay, a cosine learning-rate schedule
+    per step, optional horizontal flips, masked cross-entropy (segmentation ignores
+    IGNORE_INDEX and every invalid pixel). With ``cfg.from_scratch`` the weights are
+    first re-initialised from ``seed``; batch order and flips come from a CPU
+    ``torch.Generator`` seeded with ``seed``, so the same seed, data, device and thread
+    count give the same weights bit for bit. The whole set lives on the device as one
+    tensor and batches are index lookups (no DataLoader overhead).
+
+    Args:
+        model: from ``spl_al.models.build_model`` (its ``task`` attribute is used).
+        depth_m: (n, H, W) depth in metres, NaN at voids. A group's variants are simply
+            more images here, each repeating its group's label or mask.
+        valid: (n, H, W) bool validity (pixels also need a finite depth).
+        targets: (n,) int class indices, or (n, H, W) uint8 masks (IGNORE_INDEX = ignore).
+        cfg: a ``TrainConfig`` (or a dict for ``TrainConfig.from_dict``).
+        seed: seed of initialisation, batch order and augmentation.
+        device: "auto"/None, "cpu", "cuda" (``resolve_device``).
+        log: where progress lines go: None = stderr, a path (appended) or a stream.
+    """
+    cfg = cfg if isinstance(cfg, TrainConfig) else TrainConfig.from_dict(cfg)
+    task = getattr(model, "task", None)
+    if task not in ("classification", "segmentation"):
+        raise ValueError(
+            "model must come from spl_al.models.build_model (it has no task attribute)."
+        )
+    depth_m = np.asarray(depth_m)
+    if depth_m.ndim != 3 or depth_m.shape[0] == 0:
+        raise ValueError(f"depth_m must have shape (n, H, W) with n >= 1, got {depth_m.shape}.")
+    n = depth_m.shape[0]
+    t = check_targets(task, targets, n, depth_m.shape[1:], model.n_classes)
+    dev = resolve_device(device)
+    if cfg.num_threads is not None:
+        torch.set_num_threads(cfg.num_threads)
+
+    x_all = to_input(depth_m, valid)
+    y_all = torch.from_numpy(t)
+    if task == "segmentation":
+        y_all = torch.where(x_all[:, 1] > 0, y_all, IGNORE_INDEX)  # voids carry no label
+    x_all, y_all = x_all.to(dev), y_all.to(dev)
+
+    if cfg.from_scratch:
+        reset_parameters(model, seed)
+    model.to(dev)
+    if cfg.channels_last:
+        model.to(memory_format=torch.channels_last)
+    gen = torch.Generator().manual_seed(int(seed))
+    opt = torch.optim.SGD(
+        model.parameters(),
+        lr=cfg.lr,
+        momentum=cfg.momentum,
+        nesterov=cfg.nesterov and cfg.momentum > 0,
+        weight_decay=cfg.weight_decay,
+    )
+    batch = min(cfg.batch_size, n)
+    per_epoch = max(1, n // batch)  # drop the ragged last batch; the next permutation covers it
+    total = cfg.total_steps(n)
+    n_epochs = math.ceil(total / per_epoch)
+    progress = ProgressLog(log)
+    progress.line(
+        f"train {task} {getattr(model, 'arch', type(model).__name__)} on {n} images "
+        f"{tuple(depth_m.shape[1:])}, {total} steps ({n_epochs} epochs x {per_epoch}), "
+        f"batch {batch}, device {dev}, seed {seed}"
+    )
+    model.train()
+    step = 0
+    start = time.perf_counter()
+    try:
+        with deterministic_algorithms():
+            for epoch in range(1, n_epochs + 1):
+                perm = torch.randperm(n, generator=gen)
+                loss_sum = torch.zeros((), device=dev)
+                hits = torch.zeros((), device=dev)
+                units = torch.zeros((), device=dev)
+                seen = 0
+                for b in range(per_epoch):
+                    if step >= total:
+                        break
+                    lr = cfg.lr * (
+                        0.5 * (1 + math.cos(math.pi * step / total)) if cfg.cosine else 1
+                    )
+                    for group in opt.param_groups:
+                        group["lr"] = lr
+                    idx = perm[b * batch : (b + 1) * batch]
+                    flip = (torch.rand(len(idx), generator=gen) < 0.5) if cfg.hflip else None
+                    idx = idx.to(dev)
+                    xb, yb = x_all[idx], y_all[idx]
+                    if flip is not None:
+                        flip = flip.to(dev)
+                        xb = torch.where(flip.view(-1, 1, 1, 1), xb.flip(-1), xb)
+                        if task == "segmentation":
+                            yb = torch.where(flip.view(-1, 1, 1), yb.flip(-1), yb)
+                    if cfg.channels_last:
+                        xb = xb.contiguous(memory_format=torch.channels_last)
+                    logits, _ = model(xb)
+                    loss = masked_cross_entropy(logits, yb)
+                    opt.zero_grad(set_to_none=True)
+                    loss.backward()
+                    opt.step()
+                    with torch.no_grad():
+                        kept = yb != IGNORE_INDEX
+                        n_kept = kept.sum()
+                        loss_sum += loss.detach() * n_kept
+                        hits += ((logits.argmax(1) == yb) & kept).sum()
+                        units += n_kept
+                    seen += len(idx)
+                    step += 1
+                last = epoch == n_epochs
+                if cfg.log_every and (epoch % cfg.log_every == 0 or epoch == 1 or last):
+                    elapsed = time.perf_counter() - start
+                    u = max(float(units), 1.0)
+                    progress.line(
+                        f"epoch {epoch}/{n_epochs} step {step}/{total} "
+                        f"loss {float(loss_sum) / u:.4f} train_acc {float(hits) / u:.3f} "
+                        f"lr {lr:.4g} {elapsed:.1f}s "
+                        f"({step * batch / max(elapsed, 1e-9):.0f} img/s)"
+                    )
+        progress.line(f"done in {time.perf_counter() - start:.1f}s")
+    finally:
+        progress.close()
+    model.eval()
+    if cfg.channels_last:
+        model.to(memory_format=torch.contiguous_format)
+    return model

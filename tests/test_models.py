@@ -1,0 +1,108 @@
+"""Models: input normalisation, output shapes, deterministic initialisation."""
+
+import numpy as np
+import pytest
+import torch
+
+from spl_al.models import ARCHS, build_model, reset_parameters, to_input
+from spl_al.models.normalise import CLIP
+
+
+def test_to_input_marks_voids_and_zeroes_them():
+    depth = np.array([[1.0, np.nan], [2.0, 3.0]], dtype=np.float32)
+    valid = np.array([[True, True], [False, True]])  # NaN counts as void even if marked valid
+    x = to_input(depth, valid)
+    assert x.shape == (1, 2, 2, 2) and x.dtype == torch.float32
+    assert x[0, 1].tolist() == [[1.0, 0.0], [0.0, 1.0]]
+    assert x[0, 0, 0, 1] == 0 and x[0, 0, 1, 0] == 0
+    # valid pixels 1 and 3 m: median (lower) 1, MAD 0 -> floor 0.01 * 1 m; 3 m clips
+    assert x[0, 0, 0, 0] == 0 and x[0, 0, 1, 1] == CLIP
+    assert torch.isfinite(x).all()
+
+
+def test_to_input_all_void_image_is_zero_and_torch_input_works():
+    depth = torch.full((2, 4, 5), float("nan"))
+    depth[1, :2] = 2.0
+    x = to_input(depth)
+    assert x.shape == (2, 2, 4, 5)
+    assert (x[0] == 0).all()
+    assert x[1, 1].sum() == 10
+
+
+def test_to_input_ignores_distance_and_outliers():
+    rng = np.random.default_rng(0)
+    depth = (2.0 + rng.normal(0, 0.2, (16, 16))).astype(np.float32)
+    near = to_input(depth)[0, 0]
+    far = to_input(depth + 5.0)[0, 0]  # same scene 5 m further away
+    assert torch.allclose(near, far, atol=1e-4)
+    spiky = depth.copy()
+    spiky[3, 4] = 900.0  # a background photon's random depth
+    z = to_input(spiky)[0, 0]
+    assert z[3, 4] == CLIP
+    others = torch.ones_like(z, dtype=torch.bool)
+    others[3, 4] = False
+    assert (z[others] - near[others]).abs().max() < 0.05
+
+
+def test_to_input_rejects_bad_shapes():
+    with pytest.raises(ValueError, match="depth_m"):
+        to_input(np.zeros((1, 1, 4, 4)))
+    with pytest.raises(ValueError, match="valid"):
+        to_input(np.zeros((2, 4, 4)), np.ones((2, 4, 5), bool))
+
+
+@pytest.mark.parametrize(
+    ("task", "arch", "params", "hw"),
+    [
+        ("classification", "smallcnn", {"width": 4}, (32, 32)),
+        ("classification", "resnet18", {"width": 4}, (32, 32)),
+        ("classification", "resnet18", {"width": 4, "stem": "cifar", "blocks": (1, 1)}, (9, 11)),
+        ("segmentation", "unet", {"width": 4, "depth": 2}, (13, 19)),
+    ],
+)
+def test_models_return_logits_and_features(task, arch, params, hw):
+    model = build_model(task, 5, arch, seed=0, **params).eval()
+    x = to_input(np.random.default_rng(0).uniform(1, 3, (3, *hw)).astype(np.float32))
+    with torch.no_grad():
+        logits, feats = model(x)
+    assert model.task == task and model.n_classes == 5 and model.arch == arch
+    if task == "classification":
+        assert logits.shape == (3, 5) and feats.shape == (3, model.feature_dim)
+    else:
+        assert logits.shape == (3, 5, *hw) and feats.shape == (3, model.feature_dim, *hw)
+    assert torch.isfinite(logits).all() and torch.isfinite(feats).all()
+
+
+def test_default_arch_per_task():
+    assert build_model("classification", 3).arch == next(iter(ARCHS["classification"]))
+    assert build_model("segmentation", 3, width=2, depth=1).arch == "unet"
+
+
+@pytest.mark.parametrize(
+    "kwargs",
+    [
+        {"task": "detection", "n_classes": 3},
+        {"task": "classification", "n_classes": 1},
+        {"task": "classification", "n_classes": 3, "arch": "vgg"},
+        {"task": "classification", "n_classes": 3, "arch": "smallcnn", "depth": 3},
+        {"task": "classification", "n_classes": 3, "arch": "resnet18", "stem": "big"},
+    ],
+)
+def test_build_model_rejects_bad_arguments(kwargs):
+    with pytest.raises(ValueError):
+        build_model(**kwargs)
+
+
+def test_seeded_initialisation_is_reproducible_and_leaves_global_rng_alone():
+    state = torch.get_rng_state()
+    a = build_model("classification", 3, width=4, seed=7)
+    b = build_model("classification", 3, width=4, seed=7)
+    c = build_model("classification", 3, width=4, seed=8)
+    assert torch.equal(torch.get_rng_state(), state)
+    sa, sb, sc = a.state_dict(), b.state_dict(), c.state_dict()
+    assert all(torch.equal(sa[k], sb[k]) for k in sa)
+    assert not all(torch.equal(sa[k], sc[k]) for k in sa)
+    with torch.no_grad():
+        next(a.parameters()).add_(1.0)
+    reset_parameters(a, 7)
+    assert all(torch.equal(a.state_dict()[k], sb[k]) for k in sa)

@@ -1,0 +1,178 @@
+"""Training, prediction and evaluation: determinism, learning, masking, metrics."""
+
+import io
+import json
+
+import numpy as np
+import pytest
+import torch
+from al_synthetic import shapes_groups, street_groups
+from torch import nn
+
+from spl_al.labels import IGNORE_INDEX
+from spl_al.models import build_model
+from spl_al.training import (
+    TrainConfig,
+    confusion_per_image,
+    evaluate,
+    flatten_groups,
+    masked_cross_entropy,
+    predict,
+    resolve_device,
+    summarise,
+    train,
+)
+
+FAST = TrainConfig(epochs=4, batch_size=32, lr=0.05, log_every=0)
+
+
+def _same_weights(a: nn.Module, b: nn.Module) -> bool:
+    sa, sb = a.state_dict(), b.state_dict()
+    return all(torch.equal(sa[k], sb[k]) for k in sa)
+
+
+def test_training_is_deterministic_for_a_seed():
+    depth, valid, y = shapes_groups(48, n_groups=1)
+    d, v = depth[:, 0], valid[:, 0]
+    runs = []
+    for seed in (3, 3, 4):
+        model = build_model("classification", 3, width=4)  # from_scratch: init comes from seed
+        runs.append(train(model, d, v, y, FAST, seed=seed, device="cpu", log=io.StringIO()))
+    assert _same_weights(runs[0], runs[1])
+    assert not _same_weights(runs[0], runs[2])
+    p0, p1 = predict(runs[0], d, v, device="cpu"), predict(runs[1], d, v, device="cpu")
+    assert np.array_equal(p0.probs, p1.probs) and np.array_equal(p0.features, p1.features)
+
+
+def test_classifier_learns_a_separable_task_with_variants(tmp_path):
+    depth, valid, y = shapes_groups(200, n_groups=3, seed=1)
+    d, v, t = flatten_groups(depth[:140], valid[:140], y[:140], variants=True)
+    assert d.shape == (420, 16, 16) and np.array_equal(t, np.repeat(y[:140], 3))
+    model = build_model("classification", 3, width=8)
+    cfg = TrainConfig(epochs=8, batch_size=64, lr=0.05, log_every=4)
+    train(model, d, v, t, cfg, seed=0, device="cpu", log=tmp_path / "train.log")
+    lines = (tmp_path / "train.log").read_text().splitlines()
+    assert lines[0].startswith("train classification") and any("epoch 8/8" in s for s in lines)
+    levels = np.array(["high", "low"] * 30)
+    m = evaluate(model, depth[140:, 0], valid[140:, 0], y[140:], levels=levels, classes="abc")
+    assert m["accuracy"] > 0.9, m
+    assert set(m["per_level"]) == {"high", "low"} and m["per_level"]["high"]["n_images"] == 30
+    assert np.asarray(m["confusion"]).sum() == 60
+    json.dumps(m)
+
+
+def test_segmentation_loss_ignores_invalid_pixels():
+    depth, valid, masks = street_groups(12, n_groups=1)
+    d, v = depth[:, 0], valid[:, 0]
+    scrambled = masks.copy()
+    void = ~v
+    scrambled[void] = np.random.default_rng(0).integers(0, 3, void.sum())  # labels at voids
+    cfg = TrainConfig(steps=3, batch_size=6, log_every=0)
+    runs = [
+        train(
+            build_model("segmentation", 3, width=4, depth=2), d, v, t, cfg, 0, "cpu", io.StringIO()
+        )
+        for t in (masks, scrambled)
+    ]
+    assert _same_weights(*runs)
+    # and the loss itself: only units whose target is not IGNORE_INDEX count
+    logits = torch.tensor([[[[2.0, 0.0]], [[0.0, 5.0]]]])  # (1, C=2, 1, 2)
+    target = torch.tensor([[[0, IGNORE_INDEX]]])
+    expected = -torch.log_softmax(torch.tensor([2.0, 0.0]), 0)[0]
+    assert torch.isclose(masked_cross_entropy(logits, target), expected)
+
+
+def test_segmenter_learns_and_reports_miou():
+    depth, valid, masks = street_groups(60, n_groups=1, seed=2)
+    model = build_model("segmentation", 3, width=8, depth=2)
+    cfg = TrainConfig(epochs=30, batch_size=16, lr=0.05, log_every=0)
+    train(model, depth[:40, 0], valid[:40, 0], masks[:40], cfg, seed=0, device="cpu")
+    m = evaluate(model, depth[40:, 0], valid[40:, 0], masks[40:], levels=["medium"] * 20)
+    assert m["miou"] > 0.6, m
+    assert m["n_pixels"] == int((masks[40:] != IGNORE_INDEX).sum())
+    pred = predict(model, depth[40:42, 0], valid[40:42, 0], features="pixel")
+    assert pred.probs.shape == (2, 3, 12, 20) and pred.features.shape == (2, 8, 12, 20)
+    assert predict(model, depth[:2, 0], valid[:2, 0]).features.shape == (2, 8)
+
+
+class FixedModel(nn.Module):
+    """Returns preset logits, to check the metrics by hand."""
+
+    def __init__(self, task, logits):
+        super().__init__()
+        self.task, self.logits = task, torch.as_tensor(logits, dtype=torch.float32)
+        self.n_classes = self.logits.shape[1]
+        self.dummy = nn.Parameter(torch.zeros(1))
+
+    def forward(self, x):
+        return self.logits[: len(x)], torch.zeros(len(x), 1, *x.shape[2:])
+
+
+def test_classification_metrics_by_hand():
+    pred = np.array([0, 1, 1, 2, 2, 0])
+    true = np.array([0, 1, 2, 2, 2, 1])
+    model = FixedModel("classification", np.eye(3)[pred])
+    depth = np.ones((6, 2, 2), np.float32)
+    m = evaluate(model, depth, depth > 0, true, levels=["low", "high"] * 3)
+    assert m["accuracy"] == pytest.approx(4 / 6)
+    assert m["per_class"] == {"0": 1.0, "1": 0.5, "2": pytest.approx(2 / 3)}
+    assert m["confusion"] == [[1, 0, 0], [1, 1, 0], [0, 1, 2]]
+    assert list(m["per_level"]) == ["high", "low"]  # known levels in MSPPP order
+    assert m["per_level"]["low"]["accuracy"] == pytest.approx(2 / 3)  # images 0, 2, 4
+    assert m["per_level"]["high"]["accuracy"] == pytest.approx(2 / 3)  # images 1, 3, 5
+
+
+def test_miou_by_hand_ignores_voids_and_ignore_label():
+    # one 2x3 image, classes 0..2; pixel (1, 2) is void, pixel (1, 1) has IGNORE_INDEX
+    pred = np.array([[0, 0, 1], [1, 2, 2]])
+    true = np.array([[0, 1, 1], [1, IGNORE_INDEX, 0]], dtype=np.uint8)
+    depth = np.ones((1, 2, 3), np.float32)
+    depth[0, 1, 2] = np.nan
+    model = FixedModel("segmentation", np.eye(3)[pred].transpose(2, 0, 1)[None])
+    m = evaluate(model, depth, np.isfinite(depth), true[None])
+    # counted: (0,0) 0->0, (0,1) 1->0, (0,2) 1->1, (1,0) 1->1
+    assert m["confusion"] == [[1, 0, 0], [1, 2, 0], [0, 0, 0]]
+    assert m["per_class_iou"] == {"0": 0.5, "1": pytest.approx(2 / 3), "2": None}
+    assert m["miou"] == pytest.approx((0.5 + 2 / 3) / 2)
+    assert m["pixel_accuracy"] == 0.75
+
+
+def test_summarise_and_confusion_validate_levels():
+    conf = confusion_per_image(np.array([0, 1]), np.array([0, 0]), 2)
+    assert conf.shape == (2, 2, 2) and conf[1, 0, 1] == 1
+    with pytest.raises(ValueError, match="levels"):
+        summarise(conf, "classification", levels=["high"])
+    with pytest.raises(ValueError, match="classes"):
+        summarise(conf, "classification", classes=["a"])
+
+
+def test_train_config_from_dict_and_steps():
+    cfg = TrainConfig.from_dict({"epochs": 3, "batch_size": 10, "min_steps": 20})
+    assert cfg.total_steps(35) == 20 and TrainConfig(epochs=3, batch_size=10).total_steps(35) == 9
+    assert TrainConfig(steps=7).total_steps(1000) == 7
+    paper = TrainConfig.paper()
+    assert (paper.epochs, paper.batch_size, paper.lr, paper.momentum) == (200, 512, 0.1, 0.9)
+    assert TrainConfig.from_dict(cfg.to_dict()) == cfg
+    for bad in ({"epoch": 3}, {"lr": -1}, {"batch_size": 0}, {"epochs": None}, {"cosine": "yes"}):
+        with pytest.raises(ValueError):
+            TrainConfig.from_dict(bad)
+
+
+def test_train_rejects_bad_targets():
+    depth, valid, y = shapes_groups(4, n_groups=1)
+    model = build_model("classification", 3, width=2)
+    with pytest.raises(ValueError, match="targets"):
+        train(model, depth[:, 0], valid[:, 0], y + 3, FAST, 0, "cpu", io.StringIO())
+    with pytest.raises(ValueError, match="targets"):
+        train(model, depth[:, 0], valid[:, 0], y[:3], FAST, 0, "cpu", io.StringIO())
+
+
+def test_resolve_device():
+    assert resolve_device("cpu").type == "cpu"
+    assert resolve_device(None).type == ("cuda" if torch.cuda.is_available() else "cpu")
+    assert resolve_device("auto") == resolve_device(None)
+    with pytest.raises(ValueError):
+        resolve_device("tpu")
+    if not torch.cuda.is_available():
+        with pytest.raises(ValueError, match="CUDA"):
+            resolve_device("cuda")
