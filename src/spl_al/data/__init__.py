@@ -1,0 +1,28 @@
+"""Datasets of observed SPL images: synthetic generators, external loaders, the
+container and its on-disk format, and pictures.
+
+Public API:
+
+- ``Dataset``: N observed images with targets, split, condition, level, clean depth,
+  reflectivity and SIV variants; ``save`` / ``load`` / ``subset`` / ``groups``.
+- ``make_classification_dataset``: the 11 procedural object categories, observed.
+- ``make_segmentation_dataset``: procedural street scenes with per-pixel labels, observed.
+- ``load_folder``: the authors' released layout or a generic ``root/{class}/`` folder.
+- ``observe``: observed images of clean depth at per-sample conditions.
+- ``contact_sheet``, ``variants_sheet``: PNG pictures of a dataset.
+"""
+
+from spl_al.data.dataset import LEVELS, Dataset
+from spl_al.data.observe import DEFAULT_LEVELS, DEFAULT_SBR, condition_set, observe
+from spl_al.data.synthetic import make_classification_dataset, make_segmentation_dataset
+
+__all__ = [
+    "DEFAULT_LEVELS",
+    "DEFAULT_SBR",
+    "LEVELS",
+    "Dataset",
+    "condition_set",
+    "make_classification_dataset",
+    "make_segmentation_dataset",
+    "observe",
+]

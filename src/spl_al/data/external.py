@@ -1,0 +1,448 @@
+"""External SPL depth data: the authors' released real dataset and generic folders.
+
+Layouts ``load_folder`` reads (it tells them apart by what ``root`` holds):
+
+- flat, the authors' release: ``root/{class}_{NNNN}.npz``, each with ``depth_ssp``
+  (SPL-reconstructed depth) and ``Z_true`` (ground truth), 55x55; the class is the
+  file name without its trailing ``_NNNN``.
+- per class: ``root/{class}/*.npz|*.npy|*.png``; the class is the folder name.
+- segmentation: ``root/depth/NAME.*`` with ``root/labels/NAME.npy|.png`` paired by
+  name, or any layout above with ``label_key`` naming a per-pixel label array in
+  each ``.npz``. Class names from ``classes`` or ``root/classes.txt`` (one per line).
+
+File types: ``.npz`` (arrays by key: ``depth_key``, ``clean_key``, ``reflectance_key``,
+``label_key``; optional scalars ``msppp``, ``sbr``, ``level``), ``.npy`` (one depth
+array), ``.png`` (16-bit, depth in millimetres; 8-bit PNGs are refused).
+
+Depth is in metres after ``depth_scale``; zero or non-finite depth is a void.
+Negative, NaN / inf depths and depths beyond the sensor's reach become voids too;
+they are counted per file, reported with a warning, and recorded in
+``meta["load_report"]``. Every other problem (unreadable or truncated file, missing
+key, wrong dimensionality, mixed shapes without ``image_shape``, a class folder
+without files, a folder without data) is a ValueError naming the file.
+"""
+
+from __future__ import annotations
+
+import re
+import warnings
+import zipfile
+from collections import Counter
+from pathlib import Path
+
+import numpy as np
+
+from spl_al.data.dataset import LEVELS, Dataset, sensor_to_dict
+from spl_al.data.seeds import STREAM_SPLIT, sample_rng
+from spl_al.data.synthetic import stratified_split
+from spl_al.labels import IGNORE_INDEX
+from spl_al.photon import SensorParams
+
+DATA_SUFFIXES = (".npz", ".npy", ".png")
+_FLAT_NAME = re.compile(r"^(?P<cls>.+)_(?P<num>\d+)$")
+
+
+def _read_png(path: Path) -> np.ndarray:
+    from PIL import Image, UnidentifiedImageError
+
+    try:
+        with Image.open(path) as img:
+            mode = img.mode
+            if mode not in ("I;16", "I;16B", "I;16L", "I"):
+                raise ValueError(
+                    f"{path}: PNG mode {mode!r}; expected a 16-bit greyscale PNG "
+                    "of depth in millimetres."
+                )
+            arr = np.array(img)
+    except (OSError, UnidentifiedImageError) as exc:
+        raise ValueError(f"{path}: cannot be read as a PNG ({exc}).") from None
+    return arr.astype(np.float64) / 1000.0
+
+
+def _read_arrays(
+    path: Path, keys: dict[str, str | None], required: tuple[str, ...]
+) -> dict[str, np.ndarray]:
+    """Arrays of one file by role ("depth", "clean", ...); ``required`` roles must exist."""
+    suffix = path.suffix.lower()
+    if suffix == ".png":
+        return {"depth": _read_png(path)}
+    try:
+        if suffix == ".npy":
+            return {"depth": np.load(path, allow_pickle=False)}
+        with np.load(path, allow_pickle=False) as z:
+            files = set(z.files)
+            out = {}
+            for role, key in keys.items():
+                if key is None:
+                    continue
+                if key in files:
+                    out[role] = z[key]
+                elif role in required:
+                    raise ValueError(
+                        f"{path}: has no array {key!r} "
+                        f"(keys: {', '.join(sorted(files)) or 'none'})."
+                    )
+            for scalar in ("msppp", "sbr", "level"):
+                if scalar in files:
+                    out[scalar] = z[scalar]
+            return out
+    except ValueError as exc:
+        if str(exc).startswith(str(path)):
+            raise
+        raise ValueError(f"{path}: cannot be read ({exc}).") from None
+    except (OSError, EOFError, zipfile.BadZipFile) as exc:
+        raise ValueError(
+            f"{path}: cannot be read, the file is truncated or not a numpy file ({exc})."
+        ) from None
+
+
+def _as_image(arr: np.ndarray, path: Path, what: str) -> np.ndarray:
+    a = np.asarray(arr)
+    if a.ndim == 3 and 1 in (a.shape[0], a.shape[-1]):
+        a = a.reshape([s for s in a.shape if s != 1] if a.shape.count(1) < 3 else a.shape[:2])
+    if a.ndim != 2:
+        raise ValueError(f"{path}: {what} has shape {a.shape}; expected a 2-D image (H, W).")
+    if not (np.issubdtype(a.dtype, np.number) or a.dtype == bool):
+        raise ValueError(f"{path}: {what} has dtype {a.dtype}; expected numbers.")
+    return a
+
+
+def _resize_nearest(image: np.ndarray, shape: tuple[int, int]) -> np.ndarray:
+    """Nearest-neighbour resize (depth is never blended across edges; voids stay voids)."""
+    h, w = image.shape
+    rows = np.minimum(((np.arange(shape[0]) + 0.5) * h / shape[0]).astype(np.int64), h - 1)
+    cols = np.minimum(((np.arange(shape[1]) + 0.5) * w / shape[1]).astype(np.int64), w - 1)
+    return image[rows[:, None], cols[None, :]]
+
+
+def _list_files(folder: Path) -> list[Path]:
+    return sorted(
+        p
+        for p in folder.iterdir()
+        if p.is_file() and p.suffix.lower() in DATA_SUFFIXES and not p.name.startswith(".")
+    )
+
+
+def _discover(root: Path, label_key) -> tuple[str, list[tuple[Path, str, Path | None]]]:
+    """(layout, [(file, class name or "", label file or None)])."""
+    if not root.is_dir():
+        raise ValueError(f"{root}: no such folder.")
+    subdirs = sorted(p for p in root.iterdir() if p.is_dir() and not p.name.startswith("."))
+    files = _list_files(root)
+    names = {p.name for p in subdirs}
+    if {"depth", "labels"} <= names and label_key is None:
+        depth_files = _list_files(root / "depth")
+        if not depth_files:
+            raise ValueError(f"{root / 'depth'}: holds no .npz/.npy/.png files.")
+        labels = {p.stem: p for p in _list_files(root / "labels")}
+        out = []
+        for f in depth_files:
+            if f.stem not in labels:
+                raise ValueError(
+                    f"{f}: no label file {f.stem}.npy or {f.stem}.png in {root / 'labels'}."
+                )
+            out.append((f, "", labels[f.stem]))
+        extra = sorted(set(labels) - {f.stem for f in depth_files})
+        if extra:
+            raise ValueError(
+                f"{root / 'labels'}: label files without depth: {', '.join(extra[:5])}."
+            )
+        return "segmentation-pairs", out
+    if files and subdirs:
+        data_dirs = [d for d in subdirs if _list_files(d)]
+        if data_dirs:
+            raise ValueError(
+                f"{root}: holds both data files and class folders ({data_dirs[0].name}/); "
+                "use one layout: {class}_{NNNN}.npz files or {class}/ folders."
+            )
+    if files:
+        out = []
+        for f in files:
+            m = _FLAT_NAME.match(f.stem)
+            if m is None:
+                raise ValueError(
+                    f"{f}: name does not follow {{class}}_{{NNNN}}{f.suffix} "
+                    f"(e.g. bike_0001{f.suffix})."
+                )
+            out.append((f, m["cls"], None))
+        return "flat", out
+    if subdirs:
+        out = []
+        for d in subdirs:
+            class_files = _list_files(d)
+            if not class_files:
+                raise ValueError(f"{d}: class folder holds no .npz/.npy/.png files.")
+            out += [(f, d.name, None) for f in class_files]
+        return "per-class", out
+    raise ValueError(
+        f"{root}: no .npz/.npy/.png files found (expected {{class}}_{{NNNN}}.npz files, "
+        "{class}/ subfolders, or depth/ and labels/ folders)."
+    )
+
+
+def load_folder(
+    root,
+    depth_key: str = "depth_ssp",
+    label_key: str | None = None,
+    clean_key: str | None = "Z_true",
+    reflectance_key: str | None = None,
+    classes=None,
+    image_shape=None,
+    depth_scale: float = 1.0,
+    test_fraction: float = 0.3,
+    seed: int = 0,
+    sensor: SensorParams | None = None,
+) -> Dataset:
+    """Load a folder of SPL depth images as a Dataset of observed images.
+
+    Args:
+        root: the folder (layouts in the module docstring).
+        depth_key: array of the observed (SPL-reconstructed) depth in each ``.npz``.
+        label_key: per-pixel label array in each ``.npz``: makes it a segmentation
+            dataset (values < len(classes), 255 = ignore).
+        clean_key: ground-truth depth in each ``.npz`` (kept as ``clean_depth_m``
+            when every file has it); None to skip.
+        reflectance_key: reflectivity array (SIV input); absent = uniform reflectance.
+        classes: class names in label order. Classification: default the sorted
+            names found (a name not in ``classes`` is an error). Segmentation:
+            default ``root/classes.txt``, else class_0..class_{K-1}.
+        image_shape: (H, W) to resize every image to (nearest neighbour); None
+            requires all images to share one shape.
+        depth_scale: factor to metres of ``.npz``/``.npy`` depth (PNG is millimetres).
+        test_fraction, seed: stratified split (per class for classification).
+        sensor: SPL timing for variants; default ``SensorParams.paper_real()``.
+
+    Returns:
+        Dataset (level "unknown" and NaN conditions unless files hold ``level``,
+        ``msppp``, ``sbr``), with ``meta["load_report"]`` of the pixels made void.
+    """
+    root = Path(root)
+    sensor = SensorParams.paper_real() if sensor is None else sensor
+    if not (np.isfinite(depth_scale) and depth_scale > 0):
+        raise ValueError(f"depth_scale must be > 0, got {depth_scale!r}.")
+    layout, entries = _discover(root, label_key)
+    segmentation = label_key is not None or layout == "segmentation-pairs"
+    keys = {
+        "depth": depth_key,
+        "clean": clean_key,
+        "reflectance": reflectance_key,
+        "labels": label_key,
+    }
+    required = ("depth", "labels") if label_key else ("depth",)
+
+    records = []
+    for path, cls, label_path in entries:
+        arrays = _read_arrays(path, keys, required)
+        rec = {"path": path, "class": cls}
+        scale = 1.0 if path.suffix.lower() == ".png" else depth_scale
+        rec["depth"] = (
+            _as_image(arrays["depth"], path, depth_key if path.suffix == ".npz" else "depth")
+            * scale
+        )
+        for role in ("clean", "reflectance"):
+            if role in arrays:
+                rec[role] = _as_image(arrays[role], path, keys[role]).astype(np.float64) * (
+                    scale if role == "clean" else 1
+                )
+        if label_path is not None:
+            lab = (
+                _read_png_labels(label_path)
+                if label_path.suffix.lower() == ".png"
+                else _read_arrays(label_path, {}, ())["depth"]
+            )
+            rec["labels"] = _as_image(lab, label_path, "labels")
+        elif "labels" in arrays:
+            rec["labels"] = _as_image(arrays["labels"], path, label_key)
+        for scalar in ("msppp", "sbr", "level"):
+            if scalar in arrays:
+                rec[scalar] = arrays[scalar]
+        for role in ("clean", "reflectance", "labels"):
+            if role in rec and rec[role].shape != rec["depth"].shape:
+                raise ValueError(
+                    f"{path}: {role} has shape {rec[role].shape}, depth has {rec['depth'].shape}."
+                )
+        records.append(rec)
+
+    shapes = Counter(r["depth"].shape for r in records)
+    if image_shape is None:
+        if len(shapes) > 1:
+            found = ", ".join(
+                f"{s} in {c} files (e.g. {_first_with_shape(records, s)})"
+                for s, c in shapes.most_common()
+            )
+            raise ValueError(
+                f"{root}: images have different shapes: {found}; "
+                "pass image_shape=(H, W) to resize them."
+            )
+        shape = next(iter(shapes))
+    else:
+        try:
+            shape = tuple(int(v) for v in image_shape)
+        except (TypeError, ValueError):
+            raise ValueError(f"image_shape must be (H, W), got {image_shape!r}.") from None
+        if len(shape) != 2 or min(shape) < 1:
+            raise ValueError(f"image_shape must be (H, W) with H, W >= 1, got {image_shape!r}.")
+
+    report = {
+        "nonfinite": 0,
+        "negative": 0,
+        "zero": 0,
+        "beyond_reach": 0,
+        "files_with_bad_pixels": [],
+    }
+    depth, clean, refl, labels_img = [], [], [], []
+    for r in records:
+        d, bad = _clean_depth(r["depth"], sensor.max_depth_m)
+        for k in ("nonfinite", "negative", "zero", "beyond_reach"):
+            report[k] += bad[k]
+        if bad["nonfinite"] or bad["negative"] or bad["beyond_reach"]:
+            report["files_with_bad_pixels"].append(str(r["path"].relative_to(root)))
+        depth.append(_resize_nearest(d, shape))
+        if "clean" in r:
+            clean.append(_resize_nearest(_clean_depth(r["clean"], np.inf)[0], shape))
+        if "reflectance" in r:
+            rf = np.where(
+                np.isfinite(r["reflectance"]) & (r["reflectance"] > 0), r["reflectance"], 0.0
+            )
+            refl.append(_resize_nearest(rf, shape))
+        if "labels" in r:
+            labels_img.append(_resize_nearest(r["labels"], shape))
+    n_bad = report["nonfinite"] + report["negative"] + report["beyond_reach"]
+    if n_bad:
+        warnings.warn(
+            f"{root}: {report['nonfinite']} NaN/inf, {report['negative']} negative and "
+            f"{report['beyond_reach']} beyond-reach ({sensor.max_depth_m:.0f} m) depth pixels in "
+            f"{len(report['files_with_bad_pixels'])} files were made voids "
+            f"(e.g. {report['files_with_bad_pixels'][0]}).",
+            stacklevel=2,
+        )
+
+    n = len(records)
+    depth = np.stack(depth).astype(np.float32)
+    if segmentation:
+        if len(labels_img) != n:
+            raise ValueError(
+                f"{root}: segmentation needs labels for every image; "
+                f"{n - len(labels_img)} have none."
+            )
+        labels = _segmentation_labels(np.stack(labels_img), records, root)
+        classes = _segmentation_classes(classes, root, labels)
+        bad = (labels != IGNORE_INDEX) & (labels >= len(classes))
+        if bad.any():
+            raise ValueError(
+                f"{root}: labels hold values {np.unique(labels[bad])[:5].tolist()} "
+                f">= {len(classes)} classes."
+            )
+        groups = np.zeros(n, np.int64)
+        task = "segmentation"
+    else:
+        found = sorted({r["class"] for r in records})
+        if classes is None:
+            classes = found
+        else:
+            classes = [str(c) for c in classes]
+            unknown = sorted(set(found) - set(classes))
+            if unknown:
+                raise ValueError(
+                    f"{root}: files of classes {unknown} are not in classes={classes}."
+                )
+        labels = np.array([classes.index(r["class"]) for r in records], dtype=np.int64)
+        groups = labels
+        task = "classification"
+
+    msppp = np.array([float(r.get("msppp", np.nan)) for r in records])
+    sbr = np.array([float(r.get("sbr", np.nan)) for r in records])
+    level = np.array([str(r.get("level", "unknown")) for r in records], dtype="<U7")
+    bad_level = sorted(set(level) - {*LEVELS, "unknown"})
+    if bad_level:
+        raise ValueError(f"{root}: files hold levels {bad_level}; expected one of {LEVELS}.")
+    split = stratified_split(groups, test_fraction, sample_rng(seed, STREAM_SPLIT))
+    return Dataset(
+        task=task,
+        classes=classes,
+        depth_m=depth,
+        labels=labels,
+        split=split,
+        msppp=msppp,
+        sbr=sbr,
+        level=level,
+        clean_depth_m=np.stack(clean).astype(np.float32) if len(clean) == n else None,
+        reflectance=np.stack(refl).astype(np.float32) if len(refl) == n else None,
+        sensor=sensor,
+        meta={
+            "source": "external",
+            "root": str(root.resolve()),
+            "layout": layout,
+            "files": [str(r["path"].relative_to(root)) for r in records],
+            "depth_key": depth_key,
+            "clean_key": clean_key if len(clean) == n else None,
+            "reflectance_key": reflectance_key if len(refl) == n else None,
+            "depth_scale": float(depth_scale),
+            "image_shape": list(shape),
+            "resized_from": {str(list(s)): c for s, c in shapes.items()}
+            if image_shape is not None
+            else None,
+            "seed": int(seed),
+            "test_fraction": float(test_fraction),
+            "sensor": sensor_to_dict(sensor),
+            "load_report": report,
+        },
+    )
+
+
+def _first_with_shape(records, shape) -> str:
+    return next(r["path"].name for r in records if r["depth"].shape == shape)
+
+
+def _read_png_labels(path: Path) -> np.ndarray:
+    from PIL import Image, UnidentifiedImageError
+
+    try:
+        with Image.open(path) as img:
+            return np.array(img)
+    except (OSError, UnidentifiedImageError) as exc:
+        raise ValueError(f"{path}: cannot be read as a PNG ({exc}).") from None
+
+
+def _clean_depth(depth: np.ndarray, max_depth_m: float) -> tuple[np.ndarray, dict[str, int]]:
+    """Depth with every unusable pixel set to NaN, and the counts of each kind."""
+    d = np.asarray(depth, dtype=np.float64)
+    finite = np.isfinite(d)
+    negative = finite & (d < 0)
+    zero = finite & (d == 0)
+    beyond = finite & (d > max_depth_m)
+    counts = {
+        "nonfinite": int((~finite).sum()),
+        "negative": int(negative.sum()),
+        "zero": int(zero.sum()),
+        "beyond_reach": int(beyond.sum()),
+    }
+    return np.where(finite & ~negative & ~zero & ~beyond, d, np.nan), counts
+
+
+def _segmentation_labels(labels: np.ndarray, records, root: Path) -> np.ndarray:
+    lab = np.asarray(labels)
+    if not np.issubdtype(lab.dtype, np.integer) and (
+        not np.all(np.isfinite(lab)) or not np.all(lab == np.rint(lab))
+    ):
+        raise ValueError(f"{root}: label arrays must hold integers (class index, 255 = ignore).")
+    lab = lab.astype(np.int64)
+    if (lab < 0).any() or (lab > IGNORE_INDEX).any():
+        raise ValueError(
+            f"{root}: label values must be in 0..{IGNORE_INDEX} ({IGNORE_INDEX} = ignore)."
+        )
+    return lab.astype(np.uint8)
+
+
+def _segmentation_classes(classes, root: Path, labels: np.ndarray) -> list[str]:
+    if classes is not None:
+        return [str(c) for c in classes]
+    listing = root / "classes.txt"
+    if listing.is_file():
+        names = [line.strip() for line in listing.read_text().splitlines() if line.strip()]
+        if not names:
+            raise ValueError(f"{listing}: holds no class names.")
+        return names
+    used = labels[labels != IGNORE_INDEX]
+    k = int(used.max()) + 1 if used.size else 1
+    return [f"class_{i}" for i in range(k)]
