@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from photon_scenes import disc_scene
 from scipy import stats
 
 from spl_al.photon import SensorParams, histogram, simulate_photons
@@ -125,8 +126,6 @@ def test_same_seed_same_photons_and_different_seed_differs(scene):
 
 
 def test_vectorised_matches_the_loop_reference_statistically():
-    from tests.conftest import disc_scene
-
     depth = disc_scene(24, 24)
     refl = two_tone_reflectance(depth.shape)
     msppp, sbr = 4.0, 0.8
