@@ -63,8 +63,9 @@ class _SortedPhotons:
         self.stride = n_bins + 2 * window + 2
         key = events.pixel.astype(np.int64) * self.stride + events.bin
         self.key = np.sort(key)
-        self.pixel = self.key // self.stride
-        self.bin = self.key - self.pixel * self.stride
+        pixel = self.key // self.stride
+        self.bin = (self.key - pixel * self.stride).astype(np.int32)
+        self.pixel = pixel.astype(np.intp)
 
     def window(self, pixel: np.ndarray, lo_bin: np.ndarray, hi_bin: np.ndarray):
         """(query, photon) index pairs for photons of ``pixel`` with lo_bin <= bin <= hi_bin."""
@@ -171,32 +172,39 @@ def _own_best(photons: _SortedPhotons, like: _Likelihood, n_pixels: int):
     return best_bin, best_score
 
 
-def _score_at(photons: _SortedPhotons, like: _Likelihood, pixel: np.ndarray, centre: np.ndarray):
-    """LMF score of each pixel's own photons at an integer bin ``centre``."""
+_NO_CENTRE = np.iinfo(np.int32).min // 2  # far from every bin: no photon is "near" it
+
+
+def _score_at(photons: _SortedPhotons, like: _Likelihood, centre: np.ndarray) -> np.ndarray:
+    """LMF score of every pixel's own photons at its integer bin ``centre`` (n_pixels,);
+    pixels with centre < 0 score 0. One pass over the photons."""
     w = like.half_window
-    q, j = photons.window(pixel, centre - w, centre + w)
-    delta = photons.bin[j] - centre[q]
-    return np.bincount(q, weights=like.table[delta + w], minlength=pixel.size)
+    c = np.where(centre >= 0, centre, _NO_CENTRE).astype(np.int32)
+    offset = photons.bin - c[photons.pixel] + w
+    near = offset.view(np.uint32) <= 2 * w  # 0 <= offset <= 2w in one comparison
+    return np.bincount(photons.pixel[near], weights=like.table[offset[near]], minlength=centre.size)
 
 
-def _refine(photons: _SortedPhotons, like: _Likelihood, pixel: np.ndarray, centre: np.ndarray):
-    """Sub-bin ML depth by EM around ``centre``: tau <- sum(r t) / sum(r) over the
-    pixel's photons within the window, r the signal responsibility.
+def _refine(photons: _SortedPhotons, like: _Likelihood, centre: np.ndarray):
+    """Sub-bin ML depth by EM around ``centre`` (n_pixels,; < 0 = none):
+    tau <- sum(r t) / sum(r) over the pixel's photons within the window, r the signal
+    responsibility.
 
-    Returns (tau in bins, photons in the final window), each shaped like ``pixel``.
+    Returns (tau in bins, NaN where centre < 0; photons in the final window).
     """
     w = like.half_window
-    tau = centre.astype(np.float64)
-    n_in = np.zeros(pixel.size, dtype=np.int64)
+    n_pixels = centre.size
+    tau = np.where(centre >= 0, centre, np.nan).astype(np.float64)
+    t = photons.bin.astype(np.float64)
+    n_in = np.zeros(n_pixels, dtype=np.int64)
     for _ in range(_EM_STEPS):
-        q, j = photons.window(
-            pixel, np.ceil(tau - w).astype(np.int64), np.floor(tau + w).astype(np.int64)
-        )
-        t = photons.bin[j].astype(np.float64)
-        r = like.responsibility(t - tau[q])
-        total = np.bincount(q, weights=r, minlength=pixel.size)
-        moment = np.bincount(q, weights=r * t, minlength=pixel.size)
-        n_in = np.bincount(q, minlength=pixel.size)
+        delta = t - tau[photons.pixel]
+        near = np.abs(delta) <= w  # False where tau is NaN
+        pix = photons.pixel[near]
+        r = like.responsibility(delta[near])
+        total = np.bincount(pix, weights=r, minlength=n_pixels)
+        moment = np.bincount(pix, weights=r * t[near], minlength=n_pixels)
+        n_in = np.bincount(pix, minlength=n_pixels)
         tau = np.where(total > 0, moment / np.maximum(total, 1e-300), tau)
     return tau, n_in
 
@@ -224,15 +232,11 @@ def _pooled_choice(photons, like, best_bin, best_score, shape, margin_photons):
     cand = best_bin.reshape(shape)
     has_photons = cand >= 0
     # partial[(oy, ox)][q] = score of q's photons at the candidate of pixel q + o, |o| <= 2.
-    partial = {}
-    pix_all = np.arange(rows * cols)
-    for oy in range(-2, 3):
-        for ox in range(-2, 3):
-            c = _shift(cand, oy, ox, -1).ravel()
-            use = (c >= 0) & has_photons.ravel()
-            s = np.zeros(rows * cols)
-            s[use] = _score_at(photons, like, pix_all[use], c[use])
-            partial[(oy, ox)] = s.reshape(shape)
+    partial = {
+        (oy, ox): _score_at(photons, like, _shift(cand, oy, ox, -1).ravel()).reshape(shape)
+        for oy in range(-2, 3)
+        for ox in range(-2, 3)
+    }
     # pooled[k][p] = score, over the 3x3 window of p, of the candidate of pixel p + o'_k.
     pooled = np.full((len(_OFFSETS_3), rows, cols), -np.inf)
     for k, (cy, cx) in enumerate(_OFFSETS_3):
@@ -248,22 +252,18 @@ def _pooled_choice(photons, like, best_bin, best_score, shape, margin_photons):
         choice[pick] = _shift(cand, cy, cx, -1)[pick]
     choice[~has_photons] = -1
     # Own evidence overrides the neighbourhood only by a clear margin.
-    own_at_choice = np.zeros(rows * cols)
-    sel = choice.ravel() >= 0
-    own_at_choice[sel] = _score_at(photons, like, pix_all[sel], choice.ravel()[sel])
+    own_at_choice = _score_at(photons, like, choice.ravel())
     keep_own = best_score - own_at_choice > margin_photons * like.phi0
     return np.where(keep_own, best_bin, choice.ravel())
 
 
 def _median3(image: np.ndarray) -> np.ndarray:
-    """3x3 median over finite values (NaN = void is ignored)."""
-    stack = np.stack([_shift(image, dy, dx, np.nan) for dy, dx in _OFFSETS_3])
-    with np.errstate(all="ignore"):
-        import warnings
-
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore", RuntimeWarning)
-            return np.nanmedian(stack, axis=0)
+    """3x3 median over finite values (NaN = void is ignored; all-void windows give NaN)."""
+    stack = np.sort(np.stack([_shift(image, dy, dx, np.nan) for dy, dx in _OFFSETS_3]), axis=0)
+    n = np.isfinite(stack).sum(axis=0)  # np.sort puts NaN last
+    lo = np.take_along_axis(stack, np.maximum(n - 1, 0)[None] // 2, axis=0)[0]
+    hi = np.take_along_axis(stack, (n // 2)[None], axis=0)[0]
+    return np.where(n > 0, 0.5 * (lo + hi), np.nan)
 
 
 def _mean3(image: np.ndarray, weight: np.ndarray) -> np.ndarray:
@@ -321,10 +321,7 @@ def reconstruct(
         )
         centre = _pooled_choice(photons, like, best_bin, best_score, (rows, cols), margin)
     has = centre >= 0
-    pix = np.flatnonzero(has)
-    tau = np.full(n_pixels, np.nan)
-    n_in = np.zeros(n_pixels, dtype=np.int64)
-    tau[pix], n_in[pix] = _refine(photons, like, pix, centre[pix])
+    tau, n_in = _refine(photons, like, centre)
 
     depth = sensor.bin_to_depth(tau).reshape(rows, cols)
     n_in = n_in.reshape(rows, cols)
