@@ -1,5 +1,5 @@
 # spl-al: condition-aware active learning for single-photon LiDAR.
-# Rules live in workflow/rules/, numerics in the spl_al library.
+# Rules live in workflow/rules/ (data, al, report), numerics in the spl_al library.
 import sys
 
 from snakemake.utils import min_version
@@ -9,7 +9,11 @@ from spl_al.config import check_config
 min_version("9.0")
 
 
-configfile: "config/config.yaml"
+# --configfile FILE replaces the embedded default instead of being merged into it,
+# so config/ci.yaml and config/paper.yaml are complete on their own.
+if not workflow.overwrite_configfiles:
+
+    configfile: "config/config.yaml"
 
 
 try:
@@ -20,9 +24,13 @@ except ValueError as err:
 
 include: "workflow/rules/common.smk"
 include: "workflow/rules/photon.smk"
+include: "workflow/rules/data.smk"
+include: "workflow/rules/al.smk"
+include: "workflow/rules/report.smk"
 
 
 rule all:
     default_target: True
     input:
         photon_pictures(),
+        [dataset_outputs(d) for d in DATASETS],

@@ -1,0 +1,158 @@
+"""Methods, sweeps and runs of an experiment config (no torch, no data: cheap to import).
+
+A *method* is a named entry: an acquisition strategy, its parameters, and whether
+training uses the synthetic variants (the paper's "Syn"). One name is one curve or
+one table row. Sensitivity sweeps generate further entries from a base method with
+one parameter changed, e.g. ``duis_ncand40``, ``duis_alpha0.25``, ``duis_m2``.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+SWEEP_PARAMETERS = {"n_cand": "ncand", "alpha": "alpha", "n_variants": "m"}
+
+
+@dataclass(frozen=True)
+class MethodSpec:
+    """One method: ``strategy`` with ``params``; ``use_variants`` trains on all M + 1
+    images of a labeled group; ``n_variants`` (None = the dataset's M) is how many
+    variants the method sees, for training and for scoring."""
+
+    name: str
+    strategy: str
+    params: dict = field(default_factory=dict, hash=False)
+    use_variants: bool = False
+    n_variants: int | None = None
+
+    def as_dict(self) -> dict:
+        return {
+            "strategy": self.strategy,
+            "params": dict(self.params),
+            "use_variants": self.use_variants,
+            "n_variants": self.n_variants,
+        }
+
+
+def _format_value(value) -> str:
+    return f"{value:g}" if isinstance(value, float) else str(value)
+
+
+def sweep_name(base: str, parameter: str, value) -> str:
+    """Generated method name of a sweep point, e.g. ``duis_ncand40``."""
+    return f"{base}_{SWEEP_PARAMETERS[parameter]}{_format_value(value)}"
+
+
+def method_specs(config: dict) -> dict[str, MethodSpec]:
+    """All methods of a config: the named entries plus the generated sweep entries.
+
+    A sweep value equal to the base method's own value maps to the base method
+    itself, so the default point is not run twice.
+    """
+    specs = {}
+    for name, entry in config["methods"].items():
+        specs[name] = MethodSpec(
+            name=name,
+            strategy=entry["strategy"],
+            params=dict(entry.get("params", {})),
+            use_variants=bool(entry.get("use_variants", False)),
+            n_variants=entry.get("n_variants"),
+        )
+    for name, point in sweep_points(config).items():
+        if name in specs:
+            continue
+        base = specs[point["base"]]
+        params = dict(base.params)
+        n_variants = base.n_variants
+        if point["parameter"] == "n_variants":
+            n_variants = point["value"]
+        else:
+            params[point["parameter"]] = point["value"]
+        specs[name] = MethodSpec(name, base.strategy, params, base.use_variants, n_variants)
+    return specs
+
+
+def _base_value(config: dict, base: str, parameter: str):
+    entry = config["methods"][base]
+    if parameter == "n_variants":
+        return entry.get("n_variants")
+    return entry.get("params", {}).get(parameter)
+
+
+def sweep_points(config: dict) -> dict[str, dict]:
+    """Generated sweep methods: name -> {base, parameter, value}."""
+    sweeps = config.get("sweeps") or {}
+    if not sweeps:
+        return {}
+    base = sweeps["base"]
+    if base not in config["methods"]:
+        raise ValueError(f"config key 'sweeps.base': {base!r} is not a method in 'methods'.")
+    points = {}
+    for parameter in SWEEP_PARAMETERS:
+        for value in sweeps.get(parameter, []):
+            points[sweep_name(base, parameter, value)] = {
+                "base": base,
+                "parameter": parameter,
+                "value": value,
+            }
+    return points
+
+
+def sweep_table_spec(config: dict, dataset_m: int) -> dict[str, dict]:
+    """parameter -> {value: method name}, the default point mapped to the base method."""
+    sweeps = config.get("sweeps") or {}
+    base = sweeps.get("base")
+    table = {}
+    for parameter in SWEEP_PARAMETERS:
+        values = sweeps.get(parameter, [])
+        if not values:
+            continue
+        default = _base_value(config, base, parameter)
+        if parameter == "n_variants" and default is None:
+            default = dataset_m
+        table[parameter] = {
+            v: (base if v == default else sweep_name(base, parameter, v)) for v in values
+        }
+    return table
+
+
+def dataset_runs(config: dict, dataset: str) -> dict[tuple[str, int], int]:
+    """(method, seed) -> number of rounds (trainings) the dataset's experiments need."""
+    entry = config["datasets"][dataset]
+    exps = entry.get("experiments", {})
+    runs: dict[tuple[str, int], int] = {}
+
+    def need(methods, seeds, rounds):
+        for m in methods:
+            for s in seeds:
+                runs[(m, s)] = max(runs.get((m, s), 0), int(rounds))
+
+    budget = exps.get("budget")
+    if budget:
+        need(budget["methods"], budget["seeds"], budget["rounds"])
+    ablation = exps.get("ablation")
+    if ablation:
+        need(ablation["methods"], ablation["seeds"], ablation["round"] + 1)
+    sens = exps.get("sensitivity")
+    if sens:
+        m = entry.get("variants", {}).get("n", 4)
+        for parameter, values in sweep_table_spec(config, m).items():
+            rounds = sens["rounds"][parameter]
+            need(values.values(), sens["seeds"], rounds + 1)
+    return runs
+
+
+def check_plan(config: dict) -> None:
+    """Every method a dataset's experiments name must exist; rounds must be >= 1."""
+    specs = method_specs(config)
+    for dataset in config["datasets"]:
+        for (method, _seed), rounds in dataset_runs(config, dataset).items():
+            if method not in specs:
+                raise ValueError(
+                    f"config key 'datasets.{dataset}.experiments': method {method!r} is not "
+                    f"defined in 'methods' (known: {', '.join(sorted(specs))})."
+                )
+            if rounds < 1:
+                raise ValueError(
+                    f"config key 'datasets.{dataset}.experiments': rounds must be >= 1."
+                )

@@ -1,0 +1,396 @@
+"""One function per workflow rule: read inputs from disk, call the library, write outputs.
+
+The Snakemake scripts in workflow/scripts only unpack the ``snakemake`` object and
+call one of these, so every step can also be run from a notebook or another
+scheduler. Index convention: labeled sets and queries are indices into the
+dataset's *training split* (``dataset.train_idx[i]`` is the sample), kept as JSON.
+
+Heavy imports (torch, scikit-learn, pandas, matplotlib) happen inside the steps that
+need them, so a step that does not train pays nothing for them.
+"""
+
+from __future__ import annotations
+
+import time
+from pathlib import Path
+
+import numpy as np
+
+from spl_al.atomic import atomic_write, read_json, write_json
+from spl_al.experiment.plan import MethodSpec
+
+# Streams of np.random.SeedSequence([seed, round, stream]): one per kind of draw.
+_TRAIN_STREAM = 1
+_QUERY_STREAM = 2
+
+
+def step_seed(seed: int, round_: int, stream: int) -> int:
+    """A 31-bit seed for one (run seed, round, kind of draw): independent streams."""
+    return int(np.random.SeedSequence([int(seed), int(round_), stream]).generate_state(1)[0] >> 1)
+
+
+# ---------------------------------------------------------------- data
+
+
+def make_dataset(entry: dict, out_path) -> dict:
+    """Synthesize (or import) a dataset's observed images and save them to ``out_path``.
+
+    ``entry`` is the dataset's config: ``task``, ``source`` ("synthetic" or "folder"),
+    ``path``/``depth_key`` for folders, ``standin`` (synthesize when the folder is not
+    given) and ``synthesis`` (keyword arguments of the generator).
+    """
+    from spl_al.data import make_classification_dataset, make_segmentation_dataset
+    from spl_al.data.external import load_folder
+
+    synthesis = dict(entry.get("synthesis", {}))
+    if "image_shape" in synthesis:
+        synthesis["image_shape"] = tuple(synthesis["image_shape"])
+    standin = False
+    if entry["source"] == "folder" and entry.get("path"):
+        root = Path(entry["path"])
+        if not root.is_dir():
+            raise ValueError(f"dataset folder {root} does not exist (config key 'path').")
+        dataset = load_folder(
+            root,
+            depth_key=entry.get("depth_key", "depth_ssp"),
+            image_shape=synthesis.get("image_shape"),
+            test_fraction=synthesis.get("test_fraction", 0.3),
+            seed=synthesis.get("seed", 0),
+        )
+    elif entry["source"] == "folder" and not entry.get("standin", False):
+        raise ValueError(
+            "dataset source is 'folder' but no 'path' is given; set 'path' or 'standin: true'."
+        )
+    else:
+        standin = entry["source"] == "folder"
+        make = (
+            make_classification_dataset
+            if entry["task"] == "classification"
+            else make_segmentation_dataset
+        )
+        dataset = make(**synthesis)
+    dataset.meta["synthetic_standin"] = standin
+    dataset.save(out_path)
+    return {"samples": len(dataset), "standin": standin}
+
+
+def make_variant_shard(observed_path, variants: dict, shard: int, out_path) -> dict:
+    """SIV variants of one shard of the observed images (shards can run anywhere)."""
+    from spl_al.data import Dataset
+    from spl_al.photon import SensorParams
+    from spl_al.variants import generate_variants
+
+    dataset = Dataset.load(observed_path)
+    sensor = getattr(SensorParams, variants["sensor"])() if variants.get("sensor") else None
+    conditions = [tuple(c) for c in variants["conditions"]] if variants.get("conditions") else None
+    part = generate_variants(
+        dataset,
+        n_variants=int(variants["n"]),
+        conditions=conditions,
+        seed=int(variants["seed"]),
+        shard=(int(shard), int(variants["shards"])),
+        workers=1,
+        sensor=sensor,
+    )
+    part.save(out_path)
+    return {"shard": shard}
+
+
+def merge_variants(observed_path, shard_paths, out_path) -> dict:
+    """Attach every shard's variants to the observed dataset and save the whole."""
+    from spl_al.data import Dataset
+    from spl_al.variants import VariantShard, attach_variants
+
+    dataset = attach_variants(
+        Dataset.load(observed_path), [VariantShard.load(p) for p in shard_paths]
+    )
+    dataset.save(out_path)
+    return {"samples": len(dataset), "variants": dataset.n_variants}
+
+
+def data_pictures(dataset_path, contact_path, variants_path) -> None:
+    """Contact sheet (clean vs observed per class) and one sample's variants sheet."""
+    from spl_al.data import Dataset
+    from spl_al.data.pictures import contact_sheet, variants_sheet
+
+    dataset = Dataset.load(dataset_path)
+    contact_sheet(dataset, contact_path)
+    variants_sheet(dataset, int(dataset.test_idx[0]), variants_path)
+
+
+# ---------------------------------------------------------------- active learning
+
+
+def read_labeled(path) -> np.ndarray:
+    """Training-split indices of a labeled set written by ``initial_set`` or ``query``."""
+    record = read_json(path)
+    if "pool_indices" not in record:
+        raise ValueError(f"{path}: not a labeled set (no 'pool_indices').")
+    return np.asarray(record["pool_indices"], dtype=np.int64)
+
+
+def initial_set(dataset_path, al: dict, seed: int, out_path) -> dict:
+    """The round-0 labeled set of a seed, shared by every method (paired comparison).
+
+    Reads only the dataset's split sizes (and, when stratified, the training labels:
+    drawing the initial set is the oracle's job, not a strategy's).
+    """
+    from spl_al.data import Dataset
+    from spl_al.pool import initial_labeled_set
+
+    dataset = Dataset.load(dataset_path)
+    stratified = bool(al.get("stratified_initial", False)) and dataset.task == "classification"
+    labels = dataset.labels[dataset.train_idx] if stratified else None
+    idx = initial_labeled_set(
+        len(dataset.train_idx), int(al["initial"]), int(seed), labels=labels, stratified=stratified
+    )
+    record = {
+        "seed": int(seed),
+        "round": 0,
+        "n_labeled": int(idx.size),
+        "pool_indices": np.sort(idx).tolist(),
+    }
+    write_json(record, out_path)
+    return record
+
+
+def _n_variants(method: MethodSpec, dataset) -> int:
+    return dataset.n_variants if method.n_variants is None else int(method.n_variants)
+
+
+def _set_threads(threads: int | None) -> None:
+    import torch
+
+    if threads:
+        torch.set_num_threads(int(threads))
+
+
+def _model(dataset, model_cfg: dict):
+    from spl_al.models import build_model
+
+    cfg = dict(model_cfg)
+    arch = cfg.pop("arch", None)
+    return build_model(dataset.task, len(dataset.classes), arch=arch, **cfg)
+
+
+def train_round(
+    dataset_path,
+    labeled_path,
+    setup: dict,
+    dataset_name: str,
+    method_name: str,
+    seed: int,
+    round_: int,
+    model_path,
+    metrics_path,
+    scores_path,
+    device: str = "auto",
+    threads: int | None = None,
+    log=None,
+) -> dict:
+    """Train on round r's labeled groups, evaluate on the test split, then score the
+    unlabeled pool for the next query (``score_pool``) with the model still in memory.
+
+    ``setup`` holds ``train`` (``model``: arch and its parameters, ``fit``: a
+    TrainConfig) and ``method`` (MethodSpec fields). A method with ``use_variants``
+    trains on the observed image and the method's M variants of each labeled group,
+    all with the group's label or mask. The metrics record is the one
+    ``spl_al.report`` aggregates.
+    """
+    import torch
+
+    from spl_al.data import Dataset
+    from spl_al.training import TrainConfig, evaluate, train
+
+    _set_threads(threads)
+    started = time.perf_counter()
+    dataset = Dataset.load(dataset_path)
+    method = MethodSpec(name=method_name, **setup["method"])
+    cfg = TrainConfig.from_dict({**setup["train"].get("fit", {}), "num_threads": threads})
+    pool_idx = read_labeled(labeled_path)
+    sample_idx = dataset.train_idx[pool_idx]
+    m = _n_variants(method, dataset) if method.use_variants else 0
+    depth, valid = dataset.groups(sample_idx, n_variants=m)
+    targets = np.repeat(dataset.labels[sample_idx], depth.shape[1], axis=0)
+    images = depth.reshape(-1, *depth.shape[2:])
+    model = _model(dataset, setup["train"]["model"])
+    model = train(
+        model,
+        images,
+        valid.reshape(images.shape),
+        targets,
+        cfg,
+        seed=step_seed(seed, round_, _TRAIN_STREAM),
+        device=device,
+        log=log,
+    )
+    train_seconds = time.perf_counter() - started
+    test = dataset.test_idx
+    metrics = evaluate(
+        model,
+        dataset.depth_m[test],
+        dataset.valid[test],
+        dataset.labels[test],
+        levels=dataset.level[test],
+        classes=dataset.classes,
+        device=device,
+        batch_size=cfg.eval_batch_size,
+    )
+    state = model.state_dict()
+    atomic_write(model_path, lambda tmp: torch.save(state, tmp))
+    scored = score_pool(model, dataset, pool_idx, method, scores_path, device=device)
+    key = "accuracy" if dataset.task == "classification" else "miou"
+    ratio_of = setup.get("ratio_of", "train")
+    n_total = len(dataset) if ratio_of == "all" else len(dataset.train_idx)
+    record = {
+        "dataset": dataset_name,
+        "method": method_name,
+        "seed": int(seed),
+        "round": int(round_),
+        "n_labeled": int(pool_idx.size),
+        "n_pool": len(dataset.train_idx),
+        "n_total": int(n_total),
+        "ratio": pool_idx.size / n_total,
+        "metric": key,
+        "value": float(metrics[key]),
+        "per_level": {
+            level: float(v[key])
+            for level, v in metrics.get("per_level", {}).items()
+            if v[key] is not None
+        },
+        "synthetic_standin": bool(dataset.meta.get("synthetic_standin", False)),
+        "train_images": int(images.shape[0]),
+        "train_seconds": round(train_seconds, 3),
+        "score_seconds": scored["seconds"],
+        "seconds": round(time.perf_counter() - started, 3),
+        "details": metrics,
+    }
+    write_json(record, metrics_path)
+    return record
+
+
+def score_pool(model, dataset, labeled: np.ndarray, method: MethodSpec, out_path, device="auto"):
+    """Forward passes over the unlabeled training groups: exactly what the method's
+    strategy needs (``strategy.needs``), saved for the query step. No labels are read:
+    the strategy inputs are built from images and the model alone."""
+    from spl_al.scoring import compute_inputs
+    from spl_al.strategies import get
+
+    started = time.perf_counter()
+    strategy = get(method.strategy, **method.params)
+    unlabeled = np.setdiff1d(np.arange(len(dataset.train_idx)), labeled)
+    needs_groups = bool(strategy.needs & {"margin_inconsistency", "group_features"})
+    m = _n_variants(method, dataset) if needs_groups else 0
+    depth, valid = dataset.groups(dataset.train_idx, n_variants=m)
+    inputs = compute_inputs(model, strategy.needs, depth, valid, unlabeled, labeled, device=device)
+    inputs.save(out_path)
+    return {"unlabeled": int(unlabeled.size), "seconds": round(time.perf_counter() - started, 3)}
+
+
+def score_round(
+    dataset_path,
+    labeled_path,
+    model_path,
+    setup: dict,
+    method_name: str,
+    out_path,
+    device: str = "auto",
+    threads: int | None = None,
+) -> dict:
+    """``score_pool`` for a saved model: rescore a round without retraining."""
+    import torch
+
+    from spl_al.data import Dataset
+
+    _set_threads(threads)
+    dataset = Dataset.load(dataset_path)
+    method = MethodSpec(name=method_name, **setup["method"])
+    model = _model(dataset, setup["train"]["model"])
+    model.load_state_dict(torch.load(model_path, map_location="cpu", weights_only=True))
+    return score_pool(model, dataset, read_labeled(labeled_path), method, out_path, device)
+
+
+def query_round(
+    scores_path, labeled_path, method: dict, batch: int, seed: int, round_: int, out_path
+) -> dict:
+    """Select ``batch`` unlabeled groups with the method's strategy; the oracle labels
+    them; write the next round's labeled set (``round_`` is that next round)."""
+    from spl_al.pool import Pool
+    from spl_al.strategies import StrategyInputs, get
+
+    spec = MethodSpec(name="", **method)
+    inputs = StrategyInputs.load(scores_path)
+    labeled = read_labeled(labeled_path)
+    rng = np.random.default_rng(step_seed(seed, round_ - 1, _QUERY_STREAM))
+    picked = get(spec.strategy, **spec.params).select(inputs, int(batch), rng)
+    n_train = int(labeled.size + inputs.unlabeled_idx.size)
+    pool = Pool(n_train, labeled)
+    pool.add(picked)
+    record = {
+        "seed": int(seed),
+        "round": int(round_),
+        "n_labeled": int(pool.n_labeled),
+        "queried": np.asarray(picked, dtype=np.int64).tolist(),
+        "pool_indices": pool.labeled_idx.tolist(),
+    }
+    write_json(record, out_path)
+    return record
+
+
+# ---------------------------------------------------------------- aggregation
+
+
+def make_table(metrics_paths, kind: str, experiments: dict, sweeps: dict, out_stem) -> None:
+    """One of the paper's tables (budget, levels, ablation, sensitivity) as CSV + MD + TeX."""
+    from spl_al import report
+
+    df = report.load_records(metrics_paths)
+    metric = df["metric"].iloc[0]
+    at_round = experiments.get(kind, {}).get("round")
+    caption = {
+        "budget": f"{metric} (%) vs labeling ratio, mean ± std over seeds",
+        "levels": f"{metric} (%) per MSPPP level at round {at_round}",
+        "ablation": f"ablation: {metric} (%) at round {at_round}",
+        "sensitivity": f"parameter sensitivity of DUIS: {metric} (%)",
+    }[kind]
+    if kind == "budget":
+        frame = report.budget_table(df, methods=experiments["budget"]["methods"])
+    elif kind == "levels":
+        frame = report.level_table(
+            df, round=experiments["levels"]["round"], methods=experiments["budget"]["methods"]
+        )
+    elif kind == "ablation":
+        frame = report.ablation_table(
+            df, experiments["ablation"]["round"], rows=experiments["ablation"]["methods"]
+        )
+    elif kind == "sensitivity":
+        renamed = {("m" if p == "n_variants" else p): v for p, v in sweeps.items()}
+        rounds = {
+            ("m" if p == "n_variants" else p): r
+            for p, r in experiments["sensitivity"]["rounds"].items()
+        }
+        frame = report.sensitivity_table(df, renamed, rounds)
+    else:
+        raise ValueError(
+            f"unknown table {kind!r}; expected budget, levels, ablation or sensitivity."
+        )
+    report.write_table(frame, out_stem, caption=caption)
+
+
+def make_curves(metrics_paths, methods, png, pdf, levels_png, levels_pdf, title: str) -> None:
+    """Budget curves (overall and per MSPPP level) with ±std bands."""
+    from spl_al import report
+
+    df = report.load_records(metrics_paths)
+    df = df[df["method"].isin(methods)]
+    report.plot_curves(df, png, pdf, methods=methods, title=title)
+    report.plot_level_curves(df, levels_png, levels_pdf, methods=methods, title=title)
+
+
+def make_summary(metrics_paths, out_path) -> dict:
+    """Per method: area under the budget curve and final value (JSON)."""
+    from spl_al import report
+
+    result = report.summary(report.load_records(metrics_paths))
+    write_json(result, out_path)
+    return result

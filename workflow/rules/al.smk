@@ -1,0 +1,78 @@
+# Active-learning rounds per dataset x method x seed: train (fit, evaluate, score) -> query.
+# Round r trains on round r's labeled set (round 0: the seed's initial set, shared by
+# every method) and scores the unlabeled pool with the model still in memory; query
+# of round r + 1 selects from those scores and writes round r + 1's labeled set.
+
+
+rule initial_set:
+    input:
+        f"{RESULTS}/{{dataset}}/data/observed.npz",
+    output:
+        f"{RESULTS}/{{dataset}}/initial/seed{{seed}}.json",
+    log:
+        f"{RESULTS}/logs/{{dataset}}/initial_seed{{seed}}.log",
+    conda:
+        "../envs/spl-al.yaml"
+    threads: 1
+    resources:
+        mem_mb=1000,
+        runtime=5,
+    params:
+        al=lambda w: config["datasets"][w.dataset]["al"],
+    script:
+        "../scripts/initial_set.py"
+
+
+rule train:
+    input:
+        data=f"{RESULTS}/{{dataset}}/data/dataset.npz",
+        labeled=labeled_input,
+    output:
+        model=f"{RUN}/round{{round}}/model.pt",
+        metrics=f"{RUN}/round{{round}}/metrics.json",
+        scores=f"{RUN}/round{{round}}/scores.npz",
+    log:
+        f"{RESULTS}/logs/{{dataset}}/{{method}}/seed{{seed}}/round{{round}}_train.log",
+    benchmark:
+        f"{RESULTS}/benchmarks/{{dataset}}/{{method}}/seed{{seed}}/round{{round}}_train.tsv"
+    group:
+        "round_{dataset}_{method}_{seed}_{round}"
+    conda:
+        "../envs/spl-al.yaml"
+    threads: config["threads_per_job"]
+    resources:
+        mem_mb=4000,
+        runtime=60,
+        gpu=config["gpus_per_train_job"],
+    params:
+        setup=train_params,
+        device=config["device"],
+    script:
+        "../scripts/train.py"
+
+
+rule query:
+    input:
+        scores=lambda w: previous_round(w, "scores.npz"),
+        labeled=previous_labeled,
+    output:
+        f"{RUN}/round{{round}}/labeled.json",
+    log:
+        f"{RESULTS}/logs/{{dataset}}/{{method}}/seed{{seed}}/round{{round}}_query.log",
+    benchmark:
+        f"{RESULTS}/benchmarks/{{dataset}}/{{method}}/seed{{seed}}/round{{round}}_query.tsv"
+    wildcard_constraints:
+        round=r"[1-9]\d*",
+    group:
+        query_group
+    conda:
+        "../envs/spl-al.yaml"
+    threads: 1
+    resources:
+        mem_mb=4000,
+        runtime=30,
+    params:
+        method=lambda w: METHODS[w.method].as_dict(),
+        batch=lambda w: config["datasets"][w.dataset]["al"]["batch"],
+    script:
+        "../scripts/query.py"

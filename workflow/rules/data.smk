@@ -1,0 +1,90 @@
+# Dataset synthesis (or import), observed SPL images, and SIV variants in shards.
+
+
+rule dataset:
+    output:
+        f"{RESULTS}/{{dataset}}/data/observed.npz",
+    log:
+        f"{RESULTS}/logs/{{dataset}}/dataset.log",
+    benchmark:
+        f"{RESULTS}/benchmarks/{{dataset}}/dataset.tsv"
+    conda:
+        "../envs/spl-al.yaml"
+    threads: 2
+    resources:
+        mem_mb=4000,
+        runtime=30,
+    params:
+        entry=lambda w: dataset_params(w.dataset),
+    script:
+        "../scripts/make_dataset.py"
+
+
+rule variants_shard:
+    input:
+        f"{RESULTS}/{{dataset}}/data/observed.npz",
+    output:
+        f"{RESULTS}/{{dataset}}/data/variants/shard{{shard}}.npz",
+    log:
+        f"{RESULTS}/logs/{{dataset}}/variants_shard{{shard}}.log",
+    benchmark:
+        f"{RESULTS}/benchmarks/{{dataset}}/variants_shard{{shard}}.tsv"
+    conda:
+        "../envs/spl-al.yaml"
+    threads: 1
+    resources:
+        mem_mb=2000,
+        runtime=30,
+    params:
+        variants=lambda w: config["datasets"][w.dataset]["variants"],
+    script:
+        "../scripts/variants_shard.py"
+
+
+rule variants_merge:
+    input:
+        observed=f"{RESULTS}/{{dataset}}/data/observed.npz",
+        shards=lambda w: expand(
+            f"{RESULTS}/{w.dataset}/data/variants/shard{{shard}}.npz",
+            shard=range(n_shards(w.dataset)),
+        ),
+    output:
+        f"{RESULTS}/{{dataset}}/data/dataset.npz",
+    log:
+        f"{RESULTS}/logs/{{dataset}}/variants_merge.log",
+    conda:
+        "../envs/spl-al.yaml"
+    threads: 1
+    resources:
+        mem_mb=4000,
+        runtime=10,
+    script:
+        "../scripts/variants_merge.py"
+
+
+rule data_pictures:
+    input:
+        f"{RESULTS}/{{dataset}}/data/dataset.npz",
+    output:
+        contact=report(
+            f"{RESULTS}/{{dataset}}/figures/contact_sheet.png",
+            caption="../report/contact_sheet.rst",
+            category="{dataset}",
+            subcategory="Data",
+        ),
+        variants=report(
+            f"{RESULTS}/{{dataset}}/figures/variants_sheet.png",
+            caption="../report/variants_sheet.rst",
+            category="{dataset}",
+            subcategory="Data",
+        ),
+    log:
+        f"{RESULTS}/logs/{{dataset}}/data_pictures.log",
+    conda:
+        "../envs/spl-al.yaml"
+    threads: 1
+    resources:
+        mem_mb=2000,
+        runtime=10,
+    script:
+        "../scripts/data_pictures.py"

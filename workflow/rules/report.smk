@@ -1,0 +1,88 @@
+# Aggregation of every round's metrics into the paper's tables, curves and summary.
+
+
+rule table:
+    input:
+        metrics=lambda w: metrics_files(w.dataset),
+    output:
+        csv=report(
+            f"{RESULTS}/{{dataset}}/tables/{{table}}.csv",
+            caption="../report/table.rst",
+            category="{dataset}",
+            subcategory="Tables",
+        ),
+        md=f"{RESULTS}/{{dataset}}/tables/{{table}}.md",
+        tex=f"{RESULTS}/{{dataset}}/tables/{{table}}.tex",
+    log:
+        f"{RESULTS}/logs/{{dataset}}/table_{{table}}.log",
+    wildcard_constraints:
+        table="budget|levels|ablation|sensitivity",
+    conda:
+        "../envs/spl-al.yaml"
+    threads: 1
+    resources:
+        mem_mb=2000,
+        runtime=10,
+    params:
+        experiments=lambda w: config["datasets"][w.dataset]["experiments"],
+        sweeps=lambda w: sweep_table_spec(
+            config, config["datasets"][w.dataset]["variants"]["n"]
+        ),
+    script:
+        "../scripts/table.py"
+
+
+rule curves:
+    input:
+        metrics=lambda w: metrics_files(w.dataset),
+    output:
+        png=report(
+            f"{RESULTS}/{{dataset}}/figures/curves.png",
+            caption="../report/curves.rst",
+            category="{dataset}",
+            subcategory="Curves",
+        ),
+        pdf=f"{RESULTS}/{{dataset}}/figures/curves.pdf",
+        levels_png=report(
+            f"{RESULTS}/{{dataset}}/figures/level_curves.png",
+            caption="../report/level_curves.rst",
+            category="{dataset}",
+            subcategory="Curves",
+        ),
+        levels_pdf=f"{RESULTS}/{{dataset}}/figures/level_curves.pdf",
+    log:
+        f"{RESULTS}/logs/{{dataset}}/curves.log",
+    conda:
+        "../envs/spl-al.yaml"
+    threads: 1
+    resources:
+        mem_mb=2000,
+        runtime=10,
+    params:
+        methods=lambda w: config["datasets"][w.dataset]["experiments"]["budget"][
+            "methods"
+        ],
+    script:
+        "../scripts/curves.py"
+
+
+rule summary:
+    input:
+        metrics=lambda w: metrics_files(w.dataset),
+    output:
+        report(
+            f"{RESULTS}/{{dataset}}/tables/summary.json",
+            caption="../report/summary.rst",
+            category="{dataset}",
+            subcategory="Tables",
+        ),
+    log:
+        f"{RESULTS}/logs/{{dataset}}/summary.log",
+    conda:
+        "../envs/spl-al.yaml"
+    threads: 1
+    resources:
+        mem_mb=2000,
+        runtime=10,
+    script:
+        "../scripts/summary.py"

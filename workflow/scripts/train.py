@@ -1,0 +1,20 @@
+from spl_al.experiment.joblog import job_log
+from spl_al.experiment.steps import train_round
+
+w = snakemake.wildcards
+with job_log(snakemake.log[0]) as log:
+    train_round(
+        snakemake.input.data,
+        snakemake.input.labeled,
+        snakemake.params.setup,
+        w.dataset,
+        w.method,
+        int(w.seed),
+        int(w.round),
+        snakemake.output.model,
+        snakemake.output.metrics,
+        snakemake.output.scores,
+        device=snakemake.params.device,
+        threads=snakemake.threads,
+        log=log,
+    )
