@@ -72,7 +72,7 @@ rule query:
         mem_mb=4000,
         runtime=30,
     params:
-        method=lambda w: METHODS[w.method].as_dict(),
+        method=lambda w: dataset_method(config, w.dataset, w.method, METHODS).as_dict(),
         batch=lambda w: config["datasets"][w.dataset]["al"]["batch"],
     script:
         "../scripts/query.py"

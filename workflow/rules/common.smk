@@ -3,6 +3,7 @@ from pathlib import Path
 
 from spl_al.experiment.plan import (
     check_plan,
+    dataset_method,
     dataset_runs,
     method_specs,
     sweep_table_spec,
@@ -92,7 +93,9 @@ def train_params(wildcards):
     entry = config["datasets"][wildcards.dataset]
     return {
         "train": entry["train"],
-        "method": METHODS[wildcards.method].as_dict(),
+        "method": dataset_method(
+            config, wildcards.dataset, wildcards.method, METHODS
+        ).as_dict(),
         "ratio_of": entry["al"].get("ratio_of", "train"),
     }
 

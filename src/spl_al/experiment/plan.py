@@ -72,6 +72,19 @@ def method_specs(config: dict) -> dict[str, MethodSpec]:
     return specs
 
 
+def dataset_method(config: dict, dataset: str, name: str, specs=None) -> MethodSpec:
+    """The method ``name`` as run on ``dataset``: the dataset's ``method_params`` (e.g.
+    the paper's N_cand = 500 on its synthetic set) update the method's parameters."""
+    specs = specs if specs is not None else method_specs(config)
+    spec = specs[name]
+    override = (config["datasets"][dataset].get("method_params") or {}).get(name)
+    if not override:
+        return spec
+    return MethodSpec(
+        spec.name, spec.strategy, {**spec.params, **override}, spec.use_variants, spec.n_variants
+    )
+
+
 def _base_value(config: dict, base: str, parameter: str):
     entry = config["methods"][base]
     if parameter == "n_variants":

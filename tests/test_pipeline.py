@@ -1,0 +1,156 @@
+"""End to end: the ci config through Snakemake, resumed after a kill, and in cluster mode.
+
+One full run of config/ci.yaml is shared by the tests of this module (a few minutes
+on 2 cores); the other runs build subsets of it and must agree with it bit for bit.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import shutil
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pandas as pd
+import pytest
+
+ROOT = Path(__file__).resolve().parents[1]
+pytestmark = pytest.mark.skipif(shutil.which("snakemake") is None, reason="snakemake not installed")
+
+CLS_METHODS = ["random", "entropy", "margin", "coreset", "badge", "duis"]
+
+
+def snakemake(results: Path, *args, check=True, profile=None, background=False):
+    cmd = [sys.executable, "-m", "snakemake", "--configfile", "config/ci.yaml"]
+    cmd += ["--config", f"results={results}"]
+    cmd += ["--profile", profile] if profile else ["-j2"]
+    cmd += list(args)
+    if background:
+        return subprocess.Popen(
+            cmd,
+            cwd=ROOT,
+            stdout=subprocess.DEVNULL,
+            stderr=subprocess.DEVNULL,
+            start_new_session=True,
+        )
+    run = subprocess.run(cmd, cwd=ROOT, capture_output=True, text=True)
+    if check and run.returncode != 0:
+        raise AssertionError(f"snakemake failed:\n{run.stdout[-3000:]}\n{run.stderr[-3000:]}")
+    return run
+
+
+@pytest.fixture(scope="module")
+def ci_results(tmp_path_factory):
+    results = tmp_path_factory.mktemp("ci") / "results"
+    snakemake(results)
+    return results
+
+
+def labeled_sets(results: Path, dataset: str) -> dict[str, list[int]]:
+    root = results / dataset
+    return {
+        str(p.relative_to(root)): json.loads(p.read_text())["pool_indices"]
+        for p in sorted(root.glob("**/labeled.json")) + sorted(root.glob("initial/*.json"))
+    }
+
+
+def test_every_table_has_its_rows_columns_and_ranges(ci_results):
+    cls = ci_results / "real_cls" / "tables"
+    budget = pd.read_csv(cls / "budget.csv")
+    assert sorted(budget["method"].unique()) == sorted(CLS_METHODS)
+    assert sorted(budget["round"].unique()) == [0, 1]
+    assert len(budget) == len(CLS_METHODS) * 2
+    assert budget["n_labeled"].tolist() == [11, 17] * len(CLS_METHODS)
+    assert budget["ratio"].between(0, 1).all() and budget["mean"].between(0, 100).all()
+    assert (budget["n_seeds"] == 2).all() and (budget["std"] >= 0).all()
+    assert budget["synthetic_standin"].all()  # no path given: the real protocol runs on a stand-in
+
+    levels = pd.read_csv(cls / "levels.csv")
+    assert set(levels["level"]) == {"high", "medium", "low"}
+    assert len(levels) == len(CLS_METHODS) * 3 and levels["mean"].between(0, 100).all()
+
+    ablation = pd.read_csv(cls / "ablation.csv")
+    assert ablation["row"].tolist() == ["Syn+Random", "Syn+Diversity", "Full"]
+
+    sens = pd.read_csv(cls / "sensitivity.csv")
+    assert sorted(sens["parameter"].unique()) == ["alpha", "m", "n_cand"]
+    assert len(sens) == 6 and sens["mean"].between(0, 100).all()
+
+    for name in ("budget", "levels", "ablation", "sensitivity"):
+        assert (cls / f"{name}.md").read_text().count("|") > 10
+        assert "\\begin{tabular}" in (cls / f"{name}.tex").read_text()
+
+    seg = pd.read_csv(ci_results / "street_seg" / "tables" / "budget.csv")
+    assert sorted(seg["method"].unique()) == ["duis", "random"]
+    assert (seg["metric"] == "miou").all() and seg["mean"].between(0, 100).all()
+    assert not seg["synthetic_standin"].any()
+
+    summary = json.loads((cls / "summary.json").read_text())
+    assert sorted(summary["methods"]) == sorted(
+        set(CLS_METHODS)
+        | {"syn_random", "syn_diversity", "duis_ncand6", "duis_alpha0.25", "duis_m1"}
+    )
+    for stats in summary["methods"].values():
+        assert 0 <= stats["auc"] <= 1 and 0 <= stats["final_mean"] <= 1
+
+    for dataset in ("real_cls", "street_seg"):
+        figures = ci_results / dataset / "figures"
+        for name in ("curves.png", "level_curves.png", "contact_sheet.png", "variants_sheet.png"):
+            assert (figures / name).read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+        assert (figures / "curves.pdf").read_bytes()[:4] == b"%PDF"
+
+
+def test_labeled_sets_grow_by_the_batch_without_repeats(ci_results):
+    sets = labeled_sets(ci_results, "real_cls")
+    for seed in (1, 2):
+        initial = sets[f"initial/seed{seed}.json"]
+        for method in CLS_METHODS:
+            after = sets[f"{method}/seed{seed}/round1/labeled.json"]
+            assert len(after) == len(set(after)) == len(initial) + 6
+            assert set(initial) <= set(after)
+
+
+def test_killed_run_resumes_to_identical_tables_and_labeled_sets(ci_results, tmp_path):
+    """A second run of the same config (street_seg), SIGKILLed mid-way and restarted,
+    ends with the same labeled sets and tables as the uninterrupted run."""
+    results = tmp_path / "results"
+    target = [str(results / "street_seg" / "tables" / f"{t}.csv") for t in ("budget", "levels")]
+    proc = snakemake(results, *target, background=True)
+    deadline = time.monotonic() + 300
+    while not list((results / "street_seg").glob("*/seed*/round0/metrics.json")):
+        assert proc.poll() is None, "the run ended before it could be killed"
+        assert time.monotonic() < deadline
+        time.sleep(0.5)
+    os.killpg(proc.pid, signal.SIGKILL)
+    proc.wait()
+    assert not (results / "street_seg" / "tables" / "budget.csv").exists()
+
+    snakemake(results, "--unlock", *target)
+    snakemake(results, *target)
+    assert labeled_sets(results, "street_seg") == labeled_sets(ci_results, "street_seg")
+    for t in ("budget", "levels"):
+        name = f"street_seg/tables/{t}.csv"
+        assert (results / name).read_bytes() == (ci_results / name).read_bytes()
+
+
+def test_cluster_mode_runs_group_jobs_and_agrees(ci_results, tmp_path):
+    """The generic cluster executor with a local submit script: one submission per
+    round (train + the query it feeds), same numbers as the local run."""
+    results = tmp_path / "results"
+    target = results / "street_seg" / "random" / "seed1" / "round1" / "metrics.json"
+    run = snakemake(results, str(target), profile="profiles/local-cluster")
+    assert "Submitted group job" in run.stdout + run.stderr
+    ours = json.loads(target.read_text())
+    local = json.loads((ci_results / "street_seg/random/seed1/round1/metrics.json").read_text())
+    assert ours["value"] == local["value"] and ours["n_labeled"] == local["n_labeled"]
+
+
+def test_slurm_profile_dry_runs_with_round_groups(tmp_path):
+    run = snakemake(tmp_path / "results", "-n", profile="profiles/slurm")
+    out = run.stdout + run.stderr
+    assert "Group job round_real_cls_duis_1_0" in out
+    assert "This was a dry-run" in out
