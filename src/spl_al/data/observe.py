@@ -78,7 +78,7 @@ def condition_set(
 def assign_conditions(
     groups: np.ndarray, split: np.ndarray, levels: Mapping, sbr_values, rng: np.random.Generator
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Per-sample (msppp, sbr, level), levels balanced within every (group, split).
+    """Per-sample (msppp, sbr, level), levels balanced within every group and split.
 
     Args:
         groups: (N,) int group of each sample (its class, or 0 for segmentation).
@@ -91,12 +91,13 @@ def assign_conditions(
     names = list(levels)
     n = len(groups)
     level = np.empty(n, dtype="<U7")
-    for g in np.unique(groups):
-        for s in np.unique(split):
-            idx = np.flatnonzero((groups == g) & (split == s))
-            order = rng.permutation(idx.size)
-            offset = rng.integers(len(names))  # which level gets the remainder
-            level[idx[order]] = [names[(k + offset) % len(names)] for k in range(idx.size)]
+    for s in np.unique(split):
+        # Shuffle within each group, keep groups contiguous, then deal the levels out
+        # in turn: balanced (to within one) in every group and over the whole split.
+        idx = np.flatnonzero(split == s)
+        order = np.lexsort((rng.permutation(idx.size), groups[idx]))
+        start = rng.integers(len(names))
+        level[idx[order]] = [names[(start + k) % len(names)] for k in range(idx.size)]
     msppp = np.empty(n)
     for name, value in levels.items():
         pick = level == name
