@@ -213,12 +213,26 @@ def test_command_line(tmp_path, capsys):
     from spl_al.data.__main__ import main
 
     out = tmp_path / "tiny.npz"
-    args = ["classification", str(out), "--n-per-class", "1", "--image-shape", "16x16", "--workers", "1"]
+    args = [
+        "classification",
+        str(out),
+        "--n-per-class",
+        "1",
+        "--image-shape",
+        "16x16",
+        "--workers",
+        "1",
+    ]
     assert main(args) == 0
     assert Dataset.load(out).depth_m.shape == (11, 16, 16)
-    assert main(["variants", str(out), str(tmp_path / "s.npz"), "--shard", "0/2", "--n-variants", "1"]) == 0
+    assert (
+        main(["variants", str(out), str(tmp_path / "s.npz"), "--shard", "0/2", "--n-variants", "1"])
+        == 0
+    )
     capsys.readouterr()
-    assert main(["attach", str(out), str(tmp_path / "s.npz"), "--out", str(tmp_path / "v.npz")]) == 2
+    assert (
+        main(["attach", str(out), str(tmp_path / "s.npz"), "--out", str(tmp_path / "v.npz")]) == 2
+    )
     err = capsys.readouterr().err
     assert err.startswith("error: shards miss 5 samples") and err.count("\n") == 1
     assert not (tmp_path / "v.npz").exists()
