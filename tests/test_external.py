@@ -47,6 +47,8 @@ def test_authors_release_layout(tmp_path):
         repr(data)
         == "Dataset(classification, 12 images (55, 55), 3 classes, 0 variants, source='external')"
     )
+    with pytest.raises(ValueError, match=r"no files for classes \['cap'\]"):
+        load_folder(root, classes=[*sorted(CLASSES), "cap"])
     # Variants are built the same way as for synthetic data (uniform reflectance).
     with_variants = make_variants(data.subset([0, 5]), n_variants=2, workers=1)
     assert with_variants.variant_depth_m.shape == (2, 2, 55, 55)

@@ -12,6 +12,7 @@ from __future__ import annotations
 import argparse
 import os
 import platform
+import resource
 import tempfile
 import time
 from pathlib import Path
@@ -22,10 +23,23 @@ from spl_al.data.parallel import default_workers
 from spl_al.variants import make_variants
 
 
+def _cpu_seconds() -> float:
+    """CPU time of this process and of its finished (joined) worker processes."""
+    own = resource.getrusage(resource.RUSAGE_SELF)
+    kids = resource.getrusage(resource.RUSAGE_CHILDREN)
+    return own.ru_utime + own.ru_stime + kids.ru_utime + kids.ru_stime
+
+
+CPU = []  # CPU seconds of each timed call, in order
+
+
 def _timed(fn):
+    cpu = _cpu_seconds()
     start = time.perf_counter()
     out = fn()
-    return out, time.perf_counter() - start
+    wall = time.perf_counter() - start
+    CPU.append(_cpu_seconds() - cpu)
+    return out, wall
 
 
 def _rows(name: str, dataset_fn, n_variants: int, workers: int, folder: Path) -> list[list[str]]:
@@ -36,30 +50,43 @@ def _rows(name: str, dataset_fn, n_variants: int, workers: int, folder: Path) ->
     _, t_save = _timed(lambda: full.save(path))
     _, t_load = _timed(lambda: Dataset.load(path))
     total = t_obs + t_var + t_save
+    c_obs, c_var, c_save = CPU[-4:-1]
+    c_total = c_obs + c_var + c_save
     size_mb = os.path.getsize(path) / 1e6
     h, w = data.image_shape
+    m = n * n_variants
     return [
-        [name, f"scenes + observed images ({h}x{w})", f"{n:,}", f"{t_obs:.1f}", f"{n / t_obs:.0f}"],
+        [
+            name,
+            f"scenes + observed images ({h}x{w})",
+            f"{n:,}",
+            f"{t_obs:.1f}",
+            f"{c_obs:.1f}",
+            f"{n / t_obs:.0f}",
+        ],
         [
             name,
             f"SIV variants (M = {n_variants})",
-            f"{n * n_variants:,}",
+            f"{m:,}",
             f"{t_var:.1f}",
-            f"{n * n_variants / t_var:.0f}",
+            f"{c_var:.1f}",
+            f"{m / t_var:.0f}",
         ],
         [
             name,
             f"save ({size_mb:.1f} MB) / load",
-            f"{n * (1 + n_variants):,}",
+            f"{n + m:,}",
             f"{t_save:.2f} / {t_load:.2f}",
+            f"{c_save:.1f}",
             "-",
         ],
         [
             name,
             "**total** (generate + save)",
-            f"{n * (1 + n_variants):,}",
+            f"{n + m:,}",
             f"**{total:.1f}**",
-            f"{n * (1 + n_variants) / total:.0f}",
+            f"{c_total:.1f}",
+            f"{(n + m) / total:.0f}",
         ],
     ]
 
@@ -102,5 +129,11 @@ def main(argv: list[str]) -> int:
         f"({platform.machine()}); pooled ML reconstruction, MSPPP 10/5/2, SBR 0.2/1/5"
     )
     print()
-    print(markdown_table(["dataset", "stage", "images", "seconds", "images/s"], rows))
+    print(markdown_table(["dataset", "stage", "images", "wall s", "CPU s", "images/s"], rows))
+    print()
+    print(
+        "CPU s: this process and its workers together; on an otherwise idle machine the "
+        f"wall time is about CPU s / {workers}. Load average now: "
+        + ", ".join(f"{v:.2f}" for v in os.getloadavg())
+    )
     return 0
