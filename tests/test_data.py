@@ -52,11 +52,9 @@ def test_levels_are_balanced_per_class_and_split():
     msppp, _, level = assign_conditions(
         labels, split, {"high": 8, "low": (1, 3)}, [0.5, 2], np.random.default_rng(0)
     )
-    for c in range(4):
-        for s in ("train", "test"):
-            counts = [
-                ((labels == c) & (split == s) & (level == lv)).sum() for lv in ("high", "low")
-            ]
+    for s in ("train", "test"):
+        for group in [labels == c for c in range(4)] + [np.ones(120, bool)]:
+            counts = [(group & (split == s) & (level == lv)).sum() for lv in ("high", "low")]
             assert abs(counts[0] - counts[1]) <= 1
     assert (msppp[level == "high"] == 8).all()
     assert ((msppp[level == "low"] >= 1) & (msppp[level == "low"] <= 3)).all()
@@ -209,3 +207,32 @@ def test_pictures_are_png(cls_data, seg_data, tmp_path):
     with pytest.raises(ValueError, match="no variants"):
         variants_sheet(cls_data, 0, tmp_path / "x.png")
     assert not (tmp_path / "x.png").exists()
+
+
+def test_command_line(tmp_path, capsys):
+    from spl_al.data.__main__ import main
+
+    out = tmp_path / "tiny.npz"
+    args = [
+        "classification",
+        str(out),
+        "--n-per-class",
+        "1",
+        "--image-shape",
+        "16x16",
+        "--workers",
+        "1",
+    ]
+    assert main(args) == 0
+    assert Dataset.load(out).depth_m.shape == (11, 16, 16)
+    assert (
+        main(["variants", str(out), str(tmp_path / "s.npz"), "--shard", "0/2", "--n-variants", "1"])
+        == 0
+    )
+    capsys.readouterr()
+    assert (
+        main(["attach", str(out), str(tmp_path / "s.npz"), "--out", str(tmp_path / "v.npz")]) == 2
+    )
+    err = capsys.readouterr().err
+    assert err.startswith("error: shards miss 5 samples") and err.count("\n") == 1
+    assert not (tmp_path / "v.npz").exists()

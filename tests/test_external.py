@@ -42,6 +42,13 @@ def test_authors_release_layout(tmp_path):
     assert (data.level == "unknown").all() and np.isnan(data.msppp).all()
     assert (data.split == "test").sum() == 3  # round(0.3 * 4) per class
     assert data.meta["load_report"]["zero"] == 12 * 5 * 55
+    assert data.subset([5, 0]).meta["files"] == [data.meta["files"][5], "bike_0001.npz"]
+    assert (
+        repr(data)
+        == "Dataset(classification, 12 images (55, 55), 3 classes, 0 variants, source='external')"
+    )
+    with pytest.raises(ValueError, match=r"no files for classes \['cap'\]"):
+        load_folder(root, classes=[*sorted(CLASSES), "cap"])
     # Variants are built the same way as for synthetic data (uniform reflectance).
     with_variants = make_variants(data.subset([0, 5]), n_variants=2, workers=1)
     assert with_variants.variant_depth_m.shape == (2, 2, 55, 55)

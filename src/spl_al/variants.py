@@ -3,7 +3,10 @@
 For every observed image I_obs,i, M variants I_syn,i,j = ``synthesize_variant`` of
 the observed image's own reconstructed depth and reflectivity (not the clean
 scene) at conditions (msppp_j, sbr_j) drawn from a condition set; with the
-observed image they form the sample group S_i (``Dataset.groups``).
+observed image they form the sample group S_i (``Dataset.groups``). The photons
+are simulated and reconstructed on the bounding box of the observed image's
+returns (``spl_al.data.observe.image_through_photons``): bit-identical to
+``synthesize_variant`` on the whole frame, and faster.
 
 Seeding: sample i's conditions and photons come from ``sample_rng(seed,
 STREAM_VARIANT, uid_i)``. The M conditions are drawn without replacement from the
@@ -21,10 +24,15 @@ import numpy as np
 
 from spl_al.data import storage
 from spl_al.data.dataset import Dataset
-from spl_al.data.observe import DEFAULT_LEVELS, DEFAULT_SBR, condition_set
+from spl_al.data.observe import (
+    DEFAULT_LEVELS,
+    DEFAULT_SBR,
+    condition_set,
+    image_through_photons,
+)
 from spl_al.data.parallel import chunk_indices, default_workers, run_chunks
 from spl_al.data.seeds import STREAM_VARIANT, sample_rng
-from spl_al.photon import METHODS, SensorParams, synthesize_variant
+from spl_al.photon import METHODS, SensorParams
 
 SHARD_FORMAT = "spl-al-variant-shard"
 
@@ -126,9 +134,10 @@ def variants_of_image(depth_m, reflectance, conditions, n_variants, sensor, rng,
     sbr = np.array([conditions[p][1] for p in picks])
     if valid.any():
         for j in range(n_variants):
-            out[j] = synthesize_variant(
-                depth, refl, valid, msppp[j], sbr[j], sensor, rng, method=method
-            )
+            # synthesize_variant (simulate, then reconstruct), on the returns' bounding box.
+            out[j] = image_through_photons(
+                depth, refl, valid, msppp[j], sbr[j], sensor, rng, method
+            )[0]
     return out, msppp, sbr
 
 

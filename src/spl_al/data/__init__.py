@@ -13,7 +13,9 @@ Public API:
 """
 
 from spl_al.data.dataset import LEVELS, Dataset
+from spl_al.data.external import load_folder
 from spl_al.data.observe import DEFAULT_LEVELS, DEFAULT_SBR, condition_set, observe
+from spl_al.data.pictures import contact_sheet, variants_sheet
 from spl_al.data.synthetic import make_classification_dataset, make_segmentation_dataset
 
 __all__ = [
@@ -22,7 +24,10 @@ __all__ = [
     "LEVELS",
     "Dataset",
     "condition_set",
+    "contact_sheet",
+    "load_folder",
     "make_classification_dataset",
     "make_segmentation_dataset",
     "observe",
+    "variants_sheet",
 ]

@@ -78,7 +78,11 @@ def sensor_from_dict(d: dict | None) -> SensorParams | None:
     return None if d is None else SensorParams(**d)
 
 
-@dataclass
+# meta entries that hold one value per sample (kept aligned by ``subset``)
+PER_SAMPLE_META = ("files",)
+
+
+@dataclass(eq=False, repr=False)
 class Dataset:
     """N observed SPL depth images with targets, conditions and optional variants.
 
@@ -102,7 +106,8 @@ class Dataset:
         sensor: the SPL timing used to observe and to make variants, or None.
         variant_depth_m: (N, M, H, W) float32 SIV variants, NaN at voids, or None.
         variant_msppp, variant_sbr: (N, M) condition of each variant, or None.
-        meta: JSON-serialisable record: seed, source, grid, levels, variant settings.
+        meta: JSON-serialisable record: seed, source, grid, levels, variant settings
+            (per-sample lists only under the keys of ``PER_SAMPLE_META``).
     """
 
     task: str
@@ -219,6 +224,13 @@ class Dataset:
 
     # -- views ------------------------------------------------------------------------
 
+    def __repr__(self) -> str:
+        return (
+            f"Dataset({self.task}, {len(self)} images {self.image_shape}, "
+            f"{len(self.classes)} classes, {self.n_variants} variants, "
+            f"source={self.meta.get('source', '?')!r})"
+        )
+
     def __len__(self) -> int:
         return int(self.depth_m.shape[0])
 
@@ -288,12 +300,12 @@ class Dataset:
             for f in dataclasses.fields(self)
             if f.name not in ("task", "classes", "sensor", "meta")
         }
+        meta = dict(self.meta)
+        for key in PER_SAMPLE_META:
+            if isinstance(meta.get(key), list) and len(meta[key]) == len(self):
+                meta[key] = [meta[key][i] for i in idx]
         return Dataset(
-            task=self.task,
-            classes=list(self.classes),
-            sensor=self.sensor,
-            meta=dict(self.meta),
-            **per_sample,
+            task=self.task, classes=list(self.classes), sensor=self.sensor, meta=meta, **per_sample
         )
 
     def grid(self):

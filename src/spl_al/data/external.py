@@ -346,6 +346,9 @@ def load_folder(
                 raise ValueError(
                     f"{root}: files of classes {unknown} are not in classes={classes}."
                 )
+            empty = [c for c in classes if c not in found]
+            if empty:
+                raise ValueError(f"{root}: no files for classes {empty} (found {found}).")
         labels = np.array([classes.index(r["class"]) for r in records], dtype=np.int64)
         groups = labels
         task = "classification"

@@ -52,16 +52,20 @@ def decode_depth(code: np.ndarray, step_m: float) -> np.ndarray:
 def atomic_savez(path, arrays: dict[str, np.ndarray], meta: dict, compress: bool = True) -> Path:
     """Write ``arrays`` plus ``meta`` (as JSON under the key ``meta_json``) to ``path``.
 
-    Written through ``spl_al.atomic.atomic_write`` (temporary file + rename), so a
-    reader never sees a half-written file.
+    The file is a standard ``.npz`` (``np.load`` reads it), deflated at zlib level 1:
+    nearly the size of the default level (depth codes and masks compress well) at a
+    third of the time. Written through ``spl_al.atomic.atomic_write`` (temporary file
+    + rename), so a reader never sees a half-written file.
     """
     payload = dict(arrays)
     payload["meta_json"] = np.frombuffer(json.dumps(meta, allow_nan=False).encode(), dtype=np.uint8)
-    save = np.savez_compressed if compress else np.savez
+    method = zipfile.ZIP_DEFLATED if compress else zipfile.ZIP_STORED
 
     def write(tmp: Path) -> None:
-        with open(tmp, "wb") as fh:  # a file object keeps numpy from appending ".npz"
-            save(fh, **payload)
+        with zipfile.ZipFile(tmp, "w", compression=method, compresslevel=1) as zf:
+            for key, value in payload.items():
+                with zf.open(f"{key}.npy", "w", force_zip64=True) as fh:
+                    np.lib.format.write_array(fh, np.asanyarray(value), allow_pickle=False)
 
     return atomic_write(path, write)
 

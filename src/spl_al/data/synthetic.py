@@ -206,7 +206,6 @@ def make_classification_dataset(
             "scene_options": {
                 k: (list(v) if isinstance(v, tuple) else v) for k, v in scene_options.items()
             },
-            "object_distance_m": [round(float(d), 4) for d in cat["distance"]],
         },
     )
 

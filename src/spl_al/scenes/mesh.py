@@ -252,9 +252,10 @@ def corner_normals(mesh: Mesh) -> np.ndarray:
     normals on smooth faces, the face normal on flat ones."""
     tri = mesh.vertices[mesh.faces]
     face_n = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
-    vn = np.zeros_like(mesh.vertices)
-    for k in range(3):
-        np.add.at(vn, mesh.faces[:, k], face_n)
+    n_vertices = len(mesh.vertices)
+    corners = mesh.faces.ravel()
+    weights = np.repeat(face_n, 3, axis=0)
+    vn = np.stack([np.bincount(corners, weights[:, k], n_vertices) for k in range(3)], axis=1)
     vn /= np.maximum(np.linalg.norm(vn, axis=1, keepdims=True), 1e-300)
     unit = face_n / np.maximum(np.linalg.norm(face_n, axis=1, keepdims=True), 1e-300)
     return np.where(mesh.smooth[:, None, None], vn[mesh.faces], unit[:, None, :])

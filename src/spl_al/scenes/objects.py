@@ -722,9 +722,9 @@ def render_object(
     max_range_m: float = 140.0,
     fill=(0.3, 0.95),
     elevation_deg=(2.0, 35.0),
-    p_ground: float = 0.85,
-    p_wall: float = 0.4,
-    min_return: float = 0.03,
+    p_ground: float = 0.75,
+    p_wall: float = 0.3,
+    min_return: float = 0.05,
 ) -> ObjectImage:
     """Render one scene of ``category`` seen by a scanning SPL.
 

@@ -16,6 +16,7 @@ the cost grows with the pixels each triangle covers, not pixels x triangles.
 
 from __future__ import annotations
 
+import functools
 from dataclasses import dataclass
 
 import numpy as np
@@ -85,7 +86,10 @@ class ScanGrid:
         return np.deg2rad(np.linspace(*self.azimuth_deg, self.shape[1]))
 
     def directions(self) -> np.ndarray:
-        """(rows, cols, 3) unit ray directions in the sensor frame."""
+        """(rows, cols, 3) unit ray directions in the sensor frame (read-only, cached)."""
+        return _directions(self)
+
+    def _compute_directions(self) -> np.ndarray:
         el = self.elevation_rad[:, None]
         az = self.azimuth_rad[None, :]
         return np.stack(
@@ -106,6 +110,13 @@ class ScanGrid:
         i0 = np.ceil(np.minimum(a, b) - 1e-9)
         i1 = np.floor(np.maximum(a, b) + 1e-9)
         return np.clip(i0, 0, n).astype(np.int64), np.clip(i1, -1, n - 1).astype(np.int64)
+
+
+@functools.lru_cache(maxsize=16)
+def _directions(grid: ScanGrid) -> np.ndarray:
+    d = grid._compute_directions()
+    d.setflags(write=False)
+    return d
 
 
 @dataclass(frozen=True)
