@@ -39,8 +39,7 @@ def make_dataset(entry: dict, out_path) -> dict:
     ``path``/``depth_key`` for folders, ``standin`` (synthesize when the folder is not
     given) and ``synthesis`` (keyword arguments of the generator).
     """
-    from spl_al.data import make_classification_dataset, make_segmentation_dataset
-    from spl_al.data.external import load_folder
+    from spl_al.data import load_folder, make_classification_dataset, make_segmentation_dataset
 
     synthesis = dict(entry.get("synthesis", {}))
     if "image_shape" in synthesis:
@@ -110,8 +109,7 @@ def merge_variants(observed_path, shard_paths, out_path) -> dict:
 
 def data_pictures(dataset_path, contact_path, variants_path) -> None:
     """Contact sheet (clean vs observed per class) and one sample's variants sheet."""
-    from spl_al.data import Dataset
-    from spl_al.data.pictures import contact_sheet, variants_sheet
+    from spl_al.data import Dataset, contact_sheet, variants_sheet
 
     dataset = Dataset.load(dataset_path)
     contact_sheet(dataset, contact_path)
