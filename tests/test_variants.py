@@ -139,3 +139,17 @@ def test_observed_images_equal_the_photon_engine_on_the_full_frame(data):
         rec = reconstruct(events, clean.shape, data.sensor)
         np.testing.assert_array_equal(data.depth_m[i], rec.depth_m.astype(np.float32))
         np.testing.assert_array_equal(data.reflectance[i], rec.reflectivity.astype(np.float32))
+
+
+def test_observed_depth_in_the_last_bin_after_storage_rounding_is_accepted(data, tmp_path):
+    """A background photon in the last bin reconstructs to max_depth_m; uint16 storage may
+    round it up by under 1.25 mm, which is still inside the last bin."""
+    one = data.subset([0])
+    reach = one.sensor.max_depth_m
+    one.depth_m[0, 0, 0] = reach + 0.001
+    one.valid[0, 0, 0] = True
+    shard = generate_variants(one, n_variants=1, workers=1)
+    assert shard.depth_m.shape[:2] == (1, 1)
+    one.depth_m[0, 0, 0] = reach + one.sensor.bin_depth_m  # a whole bin past: refused
+    with pytest.raises(ValueError, match="beyond the sensor's reach"):
+        generate_variants(one, n_variants=1, workers=1)

@@ -208,7 +208,8 @@ def generate_variants(
         default_conditions(dataset) if conditions is None else _check_conditions(conditions)
     )
     far = np.nanmax(dataset.depth_m) if dataset.valid.any() else 0.0
-    if far > sensor.max_depth_m:
+    # The last bin reaches half a bin past max_depth_m; stored depths round by < 1.25 mm.
+    if sensor.depth_to_bin(far) > sensor.t_max:
         raise ValueError(
             f"observed depths reach {far:.1f} m, "
             f"beyond the sensor's reach of {sensor.max_depth_m:.1f} m."
