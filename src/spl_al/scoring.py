@@ -25,17 +25,18 @@ from torch import nn
 from spl_al.strategies.badge import gradient_embedding_factors, pixel_gradient_embedding
 from spl_al.strategies.duis import margin_and_inconsistency
 from spl_al.strategies.entropy import entropy_score
-from spl_al.strategies.inputs import GROUP_NEEDS, StrategyInputs, _index_array, check_needs
+from spl_al.strategies.inputs import GROUP_NEEDS, StrategyInputs, as_index_array, check_needs
 from spl_al.strategies.margin import margin_score
 from spl_al.training.predict import iter_forward, pool_pixels
 
 DEFAULT_BATCH_IMAGES = {"classification": 256, "segmentation": 16}
 
 
-def _group_outputs(model, depth_m, valid, idx, n_images, device):
+def _group_outputs(model, depth_m, valid, idx, n_images, device, pixel_features=False):
     """Forward the first ``n_images`` images of groups ``idx`` in one pass.
 
-    Returns probs (b, G, units, C) float32, pixel features (b, G, units, d) or None,
+    Returns probs (b, G, units, C) float32, pixel features (b, G, units, d) (segmentation
+    with ``pixel_features`` only, else None),
     pooled features (b, G, d), unit mask (b, units) or None (classification).
     """
     b = len(idx)
@@ -52,10 +53,13 @@ def _group_outputs(model, depth_m, valid, idx, n_images, device):
     c, dim = probs.shape[1], feats.shape[1]
     obs_valid = vmask.view(b, n_images, -1)[:, 0]  # (b, units)
     pooled = pool_pixels(feats, obs_valid.repeat_interleave(n_images, 0).view_as(vmask))
-    to_units = lambda t, k: t.reshape(b, n_images, k, -1).transpose(2, 3)  # noqa: E731
+
+    def per_unit(t: torch.Tensor, k: int) -> np.ndarray:  # (b*G, k, H, W) -> (b, G, units, k)
+        return t.reshape(b, n_images, k, -1).transpose(2, 3).cpu().numpy()
+
     return (
-        to_units(probs, c).cpu().numpy(),
-        to_units(feats, dim).cpu().numpy(),
+        per_unit(probs, c),
+        per_unit(feats, dim) if pixel_features else None,
         pooled.view(b, n_images, dim).cpu().numpy(),
         obs_valid.cpu().numpy(),
     )
@@ -93,8 +97,8 @@ def compute_inputs(
             f"and {np.shape(valid)}."
         )
     n_train = depth_m.shape[0]
-    unl = _index_array("unlabeled_idx", unlabeled_idx)
-    lab = _index_array("labeled_idx", labeled_idx)
+    unl = as_index_array("unlabeled_idx", unlabeled_idx)
+    lab = as_index_array("labeled_idx", labeled_idx)
     for name, idx in (("unlabeled_idx", unl), ("labeled_idx", lab)):
         if idx.size and idx.max() >= n_train:
             raise ValueError(f"{name} must index the {n_train} training groups, found {idx.max()}.")
@@ -108,9 +112,10 @@ def compute_inputs(
         parts.setdefault(name, []).append(value)
 
     scored = needs - {"labeled_features"}
+    badge_pixels = task == "segmentation" and "grad_embedding" in needs
     for s in range(0, len(unl) if scored else 0, per_batch):
         probs, pix_feats, feats, units_valid = _group_outputs(
-            model, depth_m, valid, unl[s : s + per_batch], n_images, device
+            model, depth_m, valid, unl[s : s + per_batch], n_images, device, badge_pixels
         )
         if "entropy" in needs:
             add("entropy", entropy_score(probs[:, 0], units_valid))

@@ -15,6 +15,7 @@ from __future__ import annotations
 import argparse
 import gc
 import io
+import os
 import time
 import tracemalloc
 from collections.abc import Callable
@@ -154,42 +155,65 @@ def forward_gflop(model, shape) -> float:
     return 2 * total[0] / 1e9
 
 
-def bench_training(batch: int = 128) -> tuple[list[list[str]], float, int]:
-    import torch
-
+def _throughput(task: str, arch: str, shape: tuple[int, int], batch: int, steps: int, **params):
+    """Training images/s of ``train`` itself (after a warm-up run) and forward GFLOP/image."""
     from spl_al.models import build_model
     from spl_al.training import TrainConfig, train
 
     rng = np.random.default_rng(0)
     n = 4 * batch
-    depth = rng.uniform(0.5, 3.0, (n, 64, 64)).astype(np.float32)
+    depth = rng.uniform(0.5, 3.0, (n, *shape)).astype(np.float32)
     valid = rng.random(depth.shape) > 0.1
-    y = rng.integers(0, 11, n)
-    rows = []
-    gflops = matmul_gflops()
-    for label, arch, steps in (
-        ("default CPU classifier (smallcnn)", "smallcnn", 40),
-        ("ResNet-18", "resnet18", 6),
-    ):
-        model = build_model("classification", 11, arch)
-        cfg = TrainConfig(steps=2, batch_size=batch, log_every=0)
-        train(model, depth, valid, y, cfg, seed=0, device="cpu", log=io.StringIO())  # warm-up
-        cfg = TrainConfig(steps=steps, batch_size=batch, log_every=0)
+    y = rng.integers(0, 11, n if task == "classification" else (n, *shape))
+    model = build_model(task, 11, arch, **params)
+    for run_steps in (2, steps):  # the first run warms up oneDNN's kernels
+        cfg = TrainConfig(steps=run_steps, batch_size=batch, log_every=0)
         t0 = time.perf_counter()
         train(model, depth, valid, y, cfg, seed=0, device="cpu", log=io.StringIO())
-        rate = steps * batch / (time.perf_counter() - t0)
-        fwd = forward_gflop(model, (2, 64, 64))
-        achieved = 3 * fwd * rate  # backward ~ 2x forward
-        rows.append(
-            [
-                label,
-                f"{rate:.0f}",
-                f"{fwd * 1e3:.1f}",
-                f"{achieved:.1f}",
-                f"{100 * achieved / gflops:.0f}%",
-            ]
-        )
-    return rows, gflops, torch.get_num_threads()
+        seconds = time.perf_counter() - t0
+    return steps * batch / seconds, forward_gflop(model, (2, *shape))
+
+
+def bench_training(threads: list[int]) -> tuple[list[list[str]], float]:
+    import torch
+
+    cases = (
+        (
+            "default CPU classifier (smallcnn), 64x64",
+            "classification",
+            "smallcnn",
+            (64, 64),
+            128,
+            40,
+        ),
+        ("ResNet-18 (ImageNet stem), 64x64", "classification", "resnet18", (64, 64), 128, 6),
+        ("default U-Net (width 16, depth 3), 64x256", "segmentation", "unet", (64, 256), 16, 10),
+    )
+    before = torch.get_num_threads()
+    torch.set_num_threads(max(threads))
+    gflops = matmul_gflops()
+    rows = []
+    try:
+        for label, task, arch, shape, batch, steps in cases:
+            for n_threads in threads:
+                torch.set_num_threads(n_threads)
+                rate, fwd = _throughput(task, arch, shape, batch, steps)
+                achieved = 3 * fwd * rate  # backward ~ 2x forward
+                rows.append(
+                    [label, str(n_threads), str(batch), f"{rate:.0f}", f"{fwd * 1e3:.1f}",
+                     f"{achieved:.1f}", f"{100 * achieved / gflops:.0f}%"]
+                )  # fmt: skip
+    finally:
+        torch.set_num_threads(before)
+    return rows, gflops
+
+
+def _load() -> str:
+    """The 1-minute load average: other work competing for the cores skews timings."""
+    try:
+        return f"{os.getloadavg()[0]:.2f}"
+    except OSError:
+        return "n/a"
 
 
 def _table(header: list[str], rows: list[list[str]]) -> str:
@@ -207,8 +231,10 @@ def main(argv: list[str]) -> int:
     parser.add_argument("--batch", type=int, default=100, help="query batch N_batch")
     parser.add_argument("--n-cand", type=int, default=500, help="DUIS candidate pool N_cand")
     parser.add_argument("--labeled", type=int, default=1000, help="labeled groups (coreset)")
+    parser.add_argument("--threads", default="1,2", help="torch thread counts for training")
     parser.add_argument("--skip-training", action="store_true")
     args = parser.parse_args(argv)
+    load_before = _load()
 
     print(
         f"## Strategies: pool {args.pool} groups, d = {args.dim}, C = {args.classes}, "
@@ -221,10 +247,18 @@ def main(argv: list[str]) -> int:
         "Reference: a full-distance-matrix k-center greedy takes ~43 s and ~1.6 GB here."
     )
     if not args.skip_training:
-        rows, gflops, threads = bench_training()
-        print(f"\n## Training throughput at 64x64, batch 128, {threads} torch threads\n")
-        header = ["model", "images/s", "forward GFLOP/img", "achieved GFLOP/s", "of matmul"]
-        header[2] = "forward MFLOP/img"
+        threads = [int(t) for t in args.threads.split(",")]
+        rows, gflops = bench_training(threads)
+        print("\n## Training throughput (spl_al.training.train on the CPU)\n")
+        header = ["model", "threads", "batch", "images/s", "forward MFLOP/img", "achieved GFLOP/s"]
+        header.append(f"of matmul ({max(threads)} threads)")
         print(_table(header, rows))
-        print(f"\nfloat32 matrix multiply (2048^2, torch): {gflops:.0f} GFLOP/s")
+        print(
+            "\nachieved = 3 x forward FLOP x images/s (a backward pass costs about two forwards)."
+        )
+        print(
+            f"\nfloat32 matrix multiply (2048^2, torch, {max(threads)} threads): "
+            f"{gflops:.0f} GFLOP/s."
+        )
+        print(f"Load average before / after: {load_before} / {_load()} on {os.cpu_count()} cores.")
     return 0

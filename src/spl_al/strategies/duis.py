@@ -163,7 +163,10 @@ class DUISStrategy(Strategy):
     ):
         if isinstance(n_cand, bool) or not isinstance(n_cand, int | np.integer) or n_cand < 1:
             raise ValueError(f"n_cand must be an integer >= 1, got {n_cand!r}.")
-        uis(np.zeros(1), np.zeros(1), alpha, eps)  # validates alpha and eps
+        if not 0.0 <= alpha <= 1.0:
+            raise ValueError(f"alpha must be in [0, 1], got {alpha!r}.")
+        if not eps > 0:
+            raise ValueError(f"eps must be > 0, got {eps!r}.")
         if int(max_iter) < 1:
             raise ValueError(f"max_iter must be >= 1, got {max_iter!r}.")
         self.n_cand, self.alpha, self.eps, self.max_iter = (

@@ -55,7 +55,8 @@ def check_needs(needs) -> frozenset[str]:
     return needs
 
 
-def _index_array(name: str, values) -> np.ndarray:
+def as_index_array(name: str, values) -> np.ndarray:
+    """A 1-D int64 array of distinct non-negative indices, or a ValueError naming ``name``."""
     a = np.asarray(values)
     if a.size == 0:
         return np.zeros(0, dtype=np.int64)
@@ -94,8 +95,8 @@ class StrategyInputs:
     grad_embedding: np.ndarray | None = None
 
     def __post_init__(self) -> None:
-        self.unlabeled_idx = _index_array("unlabeled_idx", self.unlabeled_idx)
-        self.labeled_idx = _index_array("labeled_idx", self.labeled_idx)
+        self.unlabeled_idx = as_index_array("unlabeled_idx", self.unlabeled_idx)
+        self.labeled_idx = as_index_array("labeled_idx", self.labeled_idx)
         if np.intersect1d(self.unlabeled_idx, self.labeled_idx).size:
             raise ValueError("unlabeled_idx and labeled_idx overlap.")
         n, n_lab = len(self.unlabeled_idx), len(self.labeled_idx)
@@ -108,9 +109,7 @@ class StrategyInputs:
             ndim = 1 if name in ("entropy", "margin", "gamma", "inconsistency") else 2
             if value.ndim != ndim or value.shape[0] != rows:
                 raise ValueError(
-                    f"{name} must be {ndim}-D with {rows} rows (one per "
-                    f"{'labeled' if rows == n_lab and name == 'labeled_features' else 'unlabeled'}"
-                    f" group), got shape {value.shape}."
+                    f"{name} must be {ndim}-D with {rows} rows, got shape {value.shape}."
                 )
             setattr(self, name, value)
 
