@@ -11,6 +11,8 @@ rule initial_set:
         f"{RESULTS}/{{dataset}}/initial/seed{{seed}}.json",
     log:
         f"{RESULTS}/logs/{{dataset}}/initial_seed{{seed}}.log",
+    benchmark:
+        f"{RESULTS}/benchmarks/{{dataset}}/initial_seed{{seed}}.tsv"
     conda:
         "../envs/spl-al.yaml"
     threads: 1

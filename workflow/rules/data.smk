@@ -52,6 +52,8 @@ rule variants_merge:
         f"{RESULTS}/{{dataset}}/data/dataset.npz",
     log:
         f"{RESULTS}/logs/{{dataset}}/variants_merge.log",
+    benchmark:
+        f"{RESULTS}/benchmarks/{{dataset}}/variants_merge.tsv"
     conda:
         "../envs/spl-al.yaml"
     threads: 1
@@ -80,6 +82,8 @@ rule data_pictures:
         ),
     log:
         f"{RESULTS}/logs/{{dataset}}/data_pictures.log",
+    benchmark:
+        f"{RESULTS}/benchmarks/{{dataset}}/data_pictures.tsv"
     conda:
         "../envs/spl-al.yaml"
     threads: 1

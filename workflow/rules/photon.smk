@@ -7,6 +7,8 @@ rule photon_conditions:
         ),
     log:
         f"{RESULTS}/logs/photon/conditions.log",
+    benchmark:
+        f"{RESULTS}/benchmarks/photon/conditions.tsv"
     conda:
         "../envs/spl-al.yaml"
     threads: 1
@@ -32,6 +34,8 @@ rule photon_real_capture:
         ),
     log:
         f"{RESULTS}/logs/photon/real_{{capture}}.log",
+    benchmark:
+        f"{RESULTS}/benchmarks/photon/real_{{capture}}.tsv"
     conda:
         "../envs/spl-al.yaml"
     threads: 1

@@ -15,6 +15,8 @@ rule table:
         tex=f"{RESULTS}/{{dataset}}/tables/{{table}}.tex",
     log:
         f"{RESULTS}/logs/{{dataset}}/table_{{table}}.log",
+    benchmark:
+        f"{RESULTS}/benchmarks/{{dataset}}/table_{{table}}.tsv"
     wildcard_constraints:
         table="budget|levels|ablation|sensitivity",
     conda:
@@ -52,6 +54,8 @@ rule curves:
         levels_pdf=f"{RESULTS}/{{dataset}}/figures/level_curves.pdf",
     log:
         f"{RESULTS}/logs/{{dataset}}/curves.log",
+    benchmark:
+        f"{RESULTS}/benchmarks/{{dataset}}/curves.tsv"
     conda:
         "../envs/spl-al.yaml"
     threads: 1
@@ -78,6 +82,8 @@ rule summary:
         ),
     log:
         f"{RESULTS}/logs/{{dataset}}/summary.log",
+    benchmark:
+        f"{RESULTS}/benchmarks/{{dataset}}/summary.tsv"
     conda:
         "../envs/spl-al.yaml"
     threads: 1

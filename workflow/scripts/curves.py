@@ -2,7 +2,13 @@ from spl_al.experiment.joblog import job_log
 from spl_al.experiment.steps import make_curves
 
 out = snakemake.output
-with job_log(snakemake.log[0]):
+with job_log(
+    snakemake.log[0],
+    preload=(
+        "matplotlib.pyplot",
+        "spl_al.report",
+    ),
+):
     make_curves(
         snakemake.input.metrics,
         snakemake.params.methods,

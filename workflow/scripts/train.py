@@ -2,7 +2,14 @@ from spl_al.experiment.joblog import job_log
 from spl_al.experiment.steps import train_round
 
 w = snakemake.wildcards
-with job_log(snakemake.log[0]) as log:
+with job_log(
+    snakemake.log[0],
+    preload=(
+        "spl_al.data",
+        "spl_al.scoring",
+        "spl_al.training",
+    ),
+) as log:
     train_round(
         snakemake.input.data,
         snakemake.input.labeled,

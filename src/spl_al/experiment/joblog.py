@@ -3,15 +3,24 @@
 from __future__ import annotations
 
 import contextlib
+import importlib
 import sys
 import time
 from pathlib import Path
 
 
 @contextlib.contextmanager
-def job_log(path):
+def job_log(path, preload=()):
     """Send stdout and stderr to ``path``; a ValueError (bad input) ends the job with
-    its one-sentence message in the log and on the terminal, without a traceback."""
+    its one-sentence message in the log and on the terminal, without a traceback.
+
+    The last line of a successful log is ``compute_seconds: X``, the time spent inside
+    the block. The ``preload`` modules (the step's heavy imports: torch, pandas, ...)
+    are imported before the clock starts, so benchmark wall time minus compute time is
+    the job's start-up (interpreter and imports); ``python -m spl_al.bench pipeline``
+    adds these up."""
+    for module in preload:
+        importlib.import_module(module)
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     started = time.perf_counter()
@@ -20,7 +29,7 @@ def job_log(path):
         sys.stdout = sys.stderr = log
         try:
             yield log
-            print(f"done in {time.perf_counter() - started:.2f} s")
+            print(f"compute_seconds: {time.perf_counter() - started:.3f}")
         except ValueError as err:
             print(f"error: {err}")
             sys.stdout, sys.stderr = old

@@ -1,0 +1,105 @@
+"""Where a workflow run's time went: ``python -m spl_al.bench pipeline RESULTS --wall S``.
+
+Reads every Snakemake benchmark file under RESULTS/benchmarks (a job's wall time) and
+the ``compute_seconds`` line its log ends with (time after the job's heavy imports),
+and prints per rule: jobs, job wall, compute, start-up (job wall - compute). Against
+the run's wall time on C cores it splits the machine's time into compute, job
+start-up (interpreter and imports) and the rest (scheduler, idle cores).
+"""
+
+from __future__ import annotations
+
+import argparse
+import re
+from collections import defaultdict
+from pathlib import Path
+
+from spl_al.bench.timing import markdown_table
+
+_RULE_OF = (
+    (re.compile(r"round\d+_train$"), "train"),
+    (re.compile(r"round\d+_query$"), "query"),
+    (re.compile(r"variants_shard\d+$"), "variants_shard"),
+    (re.compile(r"table_\w+$"), "table"),
+    (re.compile(r"initial_seed\d+$"), "initial_set"),
+    (re.compile(r"real_.+$"), "photon_real_capture"),
+)
+
+
+def rule_of(stem: str) -> str:
+    for pattern, rule in _RULE_OF:
+        if pattern.search(stem):
+            return rule
+    return stem
+
+
+def job_times(results: Path):
+    """Yield (rule, job wall s, compute s or None) for every benchmarked job."""
+    for tsv in sorted((results / "benchmarks").rglob("*.tsv")):
+        lines = tsv.read_text().splitlines()
+        if len(lines) < 2:
+            continue
+        wall = float(lines[-1].split("\t")[0])
+        log = results / "logs" / tsv.relative_to(results / "benchmarks").with_suffix(".log")
+        compute = None
+        if log.exists():
+            match = re.search(r"^compute_seconds: ([0-9.]+)$", log.read_text(), re.M)
+            compute = float(match.group(1)) if match else None
+        yield rule_of(tsv.stem), wall, compute
+
+
+def main(argv: list[str]) -> int:
+    parser = argparse.ArgumentParser(prog="python -m spl_al.bench pipeline")
+    parser.add_argument("results", type=Path, help="the run's results folder")
+    parser.add_argument("--wall", type=float, required=True, help="the run's wall time, s")
+    parser.add_argument("--cores", type=int, default=2)
+    args = parser.parse_args(argv)
+    if not (args.results / "benchmarks").is_dir():
+        print(f"error: {args.results}/benchmarks does not exist; run the workflow first.")
+        return 2
+
+    per_rule = defaultdict(lambda: [0, 0.0, 0.0])
+    for rule, wall, compute in job_times(args.results):
+        row = per_rule[rule]
+        row[0] += 1
+        row[1] += wall
+        row[2] += wall if compute is None else min(compute, wall)
+    rows = []
+    for rule, (n, wall, compute) in sorted(per_rule.items(), key=lambda kv: -kv[1][1]):
+        rows.append(
+            [
+                rule,
+                n,
+                f"{wall:.0f}",
+                f"{compute:.0f}",
+                f"{wall - compute:.0f}",
+                f"{(wall - compute) / n:.2f}",
+            ]
+        )
+    jobs = sum(r[0] for r in per_rule.values())
+    job_wall = sum(r[1] for r in per_rule.values())
+    compute = sum(r[2] for r in per_rule.values())
+    machine = args.wall * args.cores
+    rows.append(
+        [
+            "**all**",
+            jobs,
+            f"{job_wall:.0f}",
+            f"{compute:.0f}",
+            f"{job_wall - compute:.0f}",
+            f"{(job_wall - compute) / max(jobs, 1):.2f}",
+        ]
+    )
+    print(
+        markdown_table(
+            ["rule", "jobs", "job wall s", "compute s", "start-up s", "start-up s/job"], rows
+        )
+    )
+    print()
+    print(
+        f"wall {args.wall:.0f} s x {args.cores} cores = {machine:.0f} core-s: "
+        f"compute {compute / machine:.1%}, job start-up {(job_wall - compute) / machine:.1%}, "
+        f"scheduler and idle cores {(machine - job_wall) / machine:.1%}; "
+        f"scheduler + start-up + idle = {(machine - compute) / machine:.1%}"
+    )
+    return 0
