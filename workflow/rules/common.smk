@@ -89,13 +89,17 @@ def previous_round(wildcards, name):
 
 
 def train_params(wildcards):
-    """What a run's train and score jobs depend on: a change reruns only this method."""
+    """What a round's train job depends on. Strategy parameters (alpha, N_cand) are left
+    out: they change only the queries, whose params carry them, so a change reruns a
+    method's queries and the rounds after them, not its round 0."""
     entry = config["datasets"][wildcards.dataset]
+    method = dataset_method(
+        config, wildcards.dataset, wildcards.method, METHODS
+    ).as_dict()
+    method.pop("params")
     return {
         "train": entry["train"],
-        "method": dataset_method(
-            config, wildcards.dataset, wildcards.method, METHODS
-        ).as_dict(),
+        "method": method,
         "ratio_of": entry["al"].get("ratio_of", "train"),
     }
 

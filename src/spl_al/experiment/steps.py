@@ -203,7 +203,7 @@ def train_round(
     _set_threads(threads)
     started = time.perf_counter()
     dataset = Dataset.load(dataset_path)
-    method = MethodSpec(name=method_name, **setup["method"])
+    method = MethodSpec(name=method_name, **{"params": {}, **setup["method"]})
     cfg = TrainConfig.from_dict({**setup["train"].get("fit", {}), "num_threads": threads})
     pool_idx = read_labeled(labeled_path)
     sample_idx = dataset.train_idx[pool_idx]
@@ -275,6 +275,7 @@ def score_pool(model, dataset, labeled: np.ndarray, method: MethodSpec, out_path
     from spl_al.strategies import get
 
     started = time.perf_counter()
+    # What to compute depends on the strategy alone, not on its parameters.
     strategy = get(method.strategy, **method.params)
     unlabeled = np.setdiff1d(np.arange(len(dataset.train_idx)), labeled)
     needs_groups = bool(strategy.needs & {"margin_inconsistency", "group_features"})
@@ -302,7 +303,7 @@ def score_round(
 
     _set_threads(threads)
     dataset = Dataset.load(dataset_path)
-    method = MethodSpec(name=method_name, **setup["method"])
+    method = MethodSpec(name=method_name, **{"params": {}, **setup["method"]})
     model = _model(dataset, setup["train"]["model"])
     model.load_state_dict(torch.load(model_path, map_location="cpu", weights_only=True))
     return score_pool(model, dataset, read_labeled(labeled_path), method, out_path, device)
