@@ -98,6 +98,39 @@ def _object_chunk(uids, categories, msppp, sbr, seed, sensor, method, scene_kw):
     return out
 
 
+def _assemble(task, classes, parts, labels, conditions, sensor, grid, generator, meta) -> Dataset:
+    """One Dataset from the chunks of a generator: observed and clean depth and
+    reflectance (and object masks or per-pixel labels when the chunks carry them)."""
+    cat = {k: np.concatenate([p[k] for p in parts]) for k in parts[0]}
+    split, msppp, sbr, level, uid = conditions
+    return Dataset(
+        task=task,
+        classes=classes,
+        depth_m=cat["depth"],
+        labels=cat["labels"] if labels is None else labels,
+        split=split,
+        msppp=msppp,
+        sbr=sbr,
+        level=level,
+        uid=uid,
+        clean_depth_m=cat["clean"],
+        reflectance=cat["refl"],
+        clean_reflectance=cat["clean_refl"],
+        object_mask=cat.get("mask"),
+        sensor=sensor,
+        meta={
+            "source": "synthetic",
+            "generator": generator,
+            **meta,
+            "sensor": sensor_to_dict(sensor),
+            "grid": {
+                "elevation_deg": list(grid.elevation_deg),
+                "azimuth_deg": list(grid.azimuth_deg),
+            },
+        },
+    )
+
+
 def make_classification_dataset(
     n_per_class: int = 100,
     image_shape=(64, 64),
@@ -169,38 +202,23 @@ def make_classification_dataset(
         (uid[c], cats[c], msppp[c], sbr[c], seed, sensor, reconstruct_method, scene_kw)
         for c in chunk_indices(n, workers)
     ]
-    parts = run_chunks(_object_chunk, args, workers)
-    cat = {k: np.concatenate([p[k] for p in parts]) for k in parts[0]}
     grid = ScanGrid.square_pixels(shape, fov_deg)
-    return Dataset(
-        task="classification",
-        classes=classes,
-        depth_m=cat["depth"],
-        labels=labels,
-        split=split,
-        msppp=msppp,
-        sbr=sbr,
-        level=level,
-        uid=uid,
-        clean_depth_m=cat["clean"],
-        reflectance=cat["refl"],
-        clean_reflectance=cat["clean_refl"],
-        object_mask=cat["mask"],
-        sensor=sensor,
+    return _assemble(
+        "classification",
+        classes,
+        run_chunks(_object_chunk, args, workers),
+        labels,
+        (split, msppp, sbr, level, uid),
+        sensor,
+        grid,
+        generator="spl_al.scenes.objects",
         meta={
-            "source": "synthetic",
-            "generator": "spl_al.scenes.objects",
             "seed": int(seed),
             "n_per_class": int(n_per_class),
             "test_fraction": float(test_fraction),
             "levels": levels,
             "sbr_values": sbr_values,
             "reconstruct_method": reconstruct_method,
-            "sensor": sensor_to_dict(sensor),
-            "grid": {
-                "elevation_deg": list(grid.elevation_deg),
-                "azimuth_deg": list(grid.azimuth_deg),
-            },
             "fov_deg": float(fov_deg),
             "max_range_m": float(max_range_m),
             "scene_options": {
@@ -294,34 +312,21 @@ def make_segmentation_dataset(
         for c in chunk_indices(n, workers)
     ]
     parts = run_chunks(_street_chunk, args, workers)
-    cat = {k: np.concatenate([p[k] for p in parts]) for k in parts[0]}
-    return Dataset(
-        task="segmentation",
-        classes=list(STREET_CLASSES),
-        depth_m=cat["depth"],
-        labels=cat["labels"],
-        split=split,
-        msppp=msppp,
-        sbr=sbr,
-        level=level,
-        uid=uid,
-        clean_depth_m=cat["clean"],
-        reflectance=cat["refl"],
-        clean_reflectance=cat["clean_refl"],
-        sensor=sensor,
+    return _assemble(
+        "segmentation",
+        list(STREET_CLASSES),
+        parts,
+        None,  # the per-pixel labels come with the scenes
+        (split, msppp, sbr, level, uid),
+        sensor,
+        grid,
+        generator="spl_al.scenes.street",
         meta={
-            "source": "synthetic",
-            "generator": "spl_al.scenes.street",
             "seed": int(seed),
             "test_fraction": float(test_fraction),
             "levels": levels,
             "sbr_values": sbr_values,
             "reconstruct_method": reconstruct_method,
-            "sensor": sensor_to_dict(sensor),
-            "grid": {
-                "elevation_deg": list(grid.elevation_deg),
-                "azimuth_deg": list(grid.azimuth_deg),
-            },
             "max_range_m": float(max_range_m),
         },
     )
