@@ -67,6 +67,20 @@ def _check_common(n, seed, method, workers):
     return default_workers() if workers is None else int(workers)
 
 
+def _observe_into(out, k, img, msppp, sbr, sensor, seed, uid, method) -> None:
+    """Row k of out["depth"] / out["refl"]: the clean scene ``img`` seen through the
+    photon engine at (msppp, sbr), seeded by the sample's uid."""
+    out["depth"][k], out["refl"][k] = observe_image(
+        img.depth_m,
+        img.reflectance,
+        msppp,
+        sbr,
+        sensor,
+        sample_rng(seed, STREAM_OBSERVE, uid),
+        method,
+    )
+
+
 def _object_chunk(uids, categories, msppp, sbr, seed, sensor, method, scene_kw):
     n = len(uids)
     rows, cols = scene_kw["image_shape"]
@@ -86,15 +100,7 @@ def _object_chunk(uids, categories, msppp, sbr, seed, sensor, method, scene_kw):
             img.object_mask,
         )
         out["distance"][k] = img.distance_m
-        out["depth"][k], out["refl"][k] = observe_image(
-            img.depth_m,
-            img.reflectance,
-            msppp[k],
-            sbr[k],
-            sensor,
-            sample_rng(seed, STREAM_OBSERVE, uid),
-            method,
-        )
+        _observe_into(out, k, img, msppp[k], sbr[k], sensor, seed, uid, method)
     return out
 
 
@@ -245,15 +251,7 @@ def _street_chunk(uids, msppp, sbr, seed, sensor, method, grid, max_range_m):
             img.reflectance,
             img.labels,
         )
-        out["depth"][k], out["refl"][k] = observe_image(
-            img.depth_m,
-            img.reflectance,
-            msppp[k],
-            sbr[k],
-            sensor,
-            sample_rng(seed, STREAM_OBSERVE, uid),
-            method,
-        )
+        _observe_into(out, k, img, msppp[k], sbr[k], sensor, seed, uid, method)
     return out
 
 

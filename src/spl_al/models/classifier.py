@@ -51,7 +51,30 @@ class BasicBlock(nn.Module):
         return torch.relu(self.body(x) + self.shortcut(x))
 
 
-class ResNet(nn.Module):
+class _PooledClassifier(nn.Module):
+    """Shared head: global average of the trunk's last feature map (the penultimate
+    features, d channels), then a linear layer to the class logits."""
+
+    task = "classification"
+
+    def _add_head(self, feature_dim: int) -> None:
+        self.feature_dim = feature_dim
+        self.fc = nn.Linear(feature_dim, self.n_classes)
+        self.init_weights()
+
+    def init_weights(self) -> None:
+        _init_conv_bn(self)
+
+    def trunk(self, x: torch.Tensor) -> torch.Tensor:
+        raise NotImplementedError
+
+    def forward(self, x: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
+        """x (B, 2, H, W) -> logits (B, C), features (B, d)."""
+        features = self.trunk(x).mean(dim=(2, 3))
+        return self.fc(features), features
+
+
+class ResNet(_PooledClassifier):
     """ResNet-18 (He et al. 2016) trained from scratch, with configurable width and stem.
 
     Args:
@@ -63,8 +86,6 @@ class ResNet(nn.Module):
         blocks: residual blocks per stage; (2, 2, 2, 2) is ResNet-18.
         in_channels: input channels (2: depth and validity).
     """
-
-    task = "classification"
 
     def __init__(
         self,
@@ -98,20 +119,13 @@ class ResNet(nn.Module):
                 layers.append(BasicBlock(c_in, c_out, 2 if (stage > 0 and b == 0) else 1))
                 c_in = c_out
         self.stages = nn.Sequential(*layers)
-        self.feature_dim = c_in
-        self.fc = nn.Linear(c_in, self.n_classes)
-        self.init_weights()
+        self._add_head(c_in)
 
-    def init_weights(self) -> None:
-        _init_conv_bn(self)
-
-    def forward(self, x: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
-        """x (B, 2, H, W) -> logits (B, C), features (B, d)."""
-        features = self.stages(self.stem(x)).mean(dim=(2, 3))
-        return self.fc(features), features
+    def trunk(self, x: torch.Tensor) -> torch.Tensor:
+        return self.stages(self.stem(x))
 
 
-class SmallCNN(nn.Module):
+class SmallCNN(_PooledClassifier):
     """A small, fast classifier for CPU runs: strided conv-BN-ReLU stages.
 
     Stage k has ``width * 2**k`` channels and halves the resolution (a 3x3 stride-2
@@ -125,8 +139,6 @@ class SmallCNN(nn.Module):
         convs_per_stage: convolutions per stage (>= 1).
         in_channels: input channels (2: depth and validity).
     """
-
-    task = "classification"
 
     def __init__(
         self,
@@ -151,14 +163,7 @@ class SmallCNN(nn.Module):
                 layers += [*_conv_bn(c_in, c_out, 3, 2 if j == 0 else 1), nn.ReLU(inplace=True)]
                 c_in = c_out
         self.body = nn.Sequential(*layers)
-        self.feature_dim = c_in
-        self.fc = nn.Linear(c_in, self.n_classes)
-        self.init_weights()
+        self._add_head(c_in)
 
-    def init_weights(self) -> None:
-        _init_conv_bn(self)
-
-    def forward(self, x: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
-        """x (B, 2, H, W) -> logits (B, C), features (B, d)."""
-        features = self.body(x).mean(dim=(2, 3))
-        return self.fc(features), features
+    def trunk(self, x: torch.Tensor) -> torch.Tensor:
+        return self.body(x)
