@@ -98,7 +98,8 @@ def test_segmentation_inputs_are_per_group_and_average_observed_valid_pixels():
     units = valid[unl, 0].reshape(n, hw)  # the observed image's valid pixels
     assert np.allclose(inputs.entropy, entropy_score(probs[:, 0], units), atol=1e-6)
     assert np.allclose(inputs.margin, margin_score(probs[:, 0], units), atol=1e-6)
-    gamma, d = margin_and_inconsistency(probs, units)
+    images = valid[unl].reshape(n, 2, hw)  # each image's own valid pixels
+    gamma, d = margin_and_inconsistency(probs, units, images)
     assert np.allclose(inputs.gamma, gamma, atol=1e-6) and np.allclose(
         inputs.inconsistency, d, atol=1e-6
     )

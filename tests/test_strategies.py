@@ -53,6 +53,32 @@ def test_margin_and_kl_to_mean_by_hand():
     assert g.tolist() == [1.0, 1.0] and dd.tolist() == [0.0, 0.0]
 
 
+def test_segmentation_kl_skips_void_pixels_of_each_image_by_hand():
+    """One group, observed image + 1 variant, 2 pixels. Pixel 0 is valid in both;
+    pixel 1 is a void in the variant, so it carries no prediction there: qbar at
+    pixel 1 is the observed prediction alone and the variant's KL averages over
+    pixel 0 only, while the margin averages over both observed-valid pixels."""
+    q_obs = [[1.0, 0.0], [0.6, 0.4]]
+    q_var = [[0.5, 0.5], [0.0, 1.0]]  # its pixel-1 prediction must not count
+    probs = np.array([[q_obs, q_var]])  # (1, 2, 2, 2)
+    images = np.array([[[True, True], [True, False]]])
+    gamma, d = margin_and_inconsistency(probs, image_valid=images)
+    # pixel 0: qbar = (0.75, 0.25), gap 0.5; pixel 1: qbar = (0.6, 0.4), gap 0.2
+    assert gamma == pytest.approx([(0.5 + 0.2) / 2])
+    kl_obs_0 = np.log(1 / 0.75)  # pixel 1 of the observed image: KL(q || q) = 0
+    kl_var_0 = 0.5 * np.log(0.5 / 0.75) + 0.5 * np.log(0.5 / 0.25)
+    assert d == pytest.approx([((kl_obs_0 + 0.0) / 2 + kl_var_0) / 2])
+    # the observed mask restricts every term; a group without valid units is NaN
+    g_only0, d_only0 = margin_and_inconsistency(
+        probs, valid=np.array([[True, False]]), image_valid=images
+    )
+    assert g_only0 == pytest.approx([0.5]) and d_only0 == pytest.approx([(kl_obs_0 + kl_var_0) / 2])
+    empty = margin_and_inconsistency(probs, image_valid=np.zeros((1, 2, 2), bool))
+    assert np.isnan(empty[0]).all() and np.isnan(empty[1]).all()
+    with pytest.raises(ValueError, match="image_valid must have shape"):
+        margin_and_inconsistency(probs, image_valid=images[:, :1])
+
+
 def test_uis_by_hand():
     gamma = np.array([0.1, 0.5, 0.3])
     d = np.array([0.2, 0.0, 0.4])

@@ -52,15 +52,34 @@ def test_variants_come_from_the_observed_image(data, whole):
     assert err_obs < 0.1
 
 
-def test_conditions_are_drawn_from_the_set(data, whole):
+def test_variant_j_of_every_group_uses_condition_j(data, whole):
+    """Systematic conditions: the same ordered list for every group, so d_i compares
+    like with like; the first m variants are what M = m would make (nested M sweep)."""
     conditions = default_conditions(data)
-    assert len(conditions) == 9
-    pairs = {tuple(c) for c in conditions}
-    for i in range(len(data)):
-        drawn = list(zip(whole.msppp[i], whole.sbr[i], strict=True))
-        assert set(drawn) <= pairs and len(set(drawn)) == 3, "without replacement"
-    custom = generate_variants(data.subset([0]), n_variants=4, conditions=[(3, 1)], workers=1)
-    assert (custom.msppp == 3).all() and (custom.sbr == 1).all()
+    assert len(conditions) == 9 and len(set(conditions)) == 9
+    assert conditions[:3] == [(5.0, 1.0), (2.0, 0.2), (2.0, 5.0)]  # centre, then spread
+    np.testing.assert_array_equal(whole.msppp, np.tile([c[0] for c in conditions[:3]], (6, 1)))
+    np.testing.assert_array_equal(whole.sbr, np.tile([c[1] for c in conditions[:3]], (6, 1)))
+    two = generate_variants(data, n_variants=2, seed=5, workers=1)
+    np.testing.assert_array_equal(two.depth_m, whole.depth_m[:, :2])
+    custom = generate_variants(
+        data.subset([0]), n_variants=2, conditions=[(3, 1), (1, 0.5)], workers=1
+    )
+    assert custom.msppp.tolist() == [[3, 1]] and custom.sbr.tolist() == [[1, 0.5]]
+    with pytest.raises(ValueError, match="give at least M"):
+        generate_variants(data.subset([0]), n_variants=3, conditions=[(3, 1)], workers=1)
+
+
+def test_spread_conditions_is_a_permutation_whose_prefixes_spread():
+    from spl_al.data import condition_set
+    from spl_al.variants import spread_conditions
+
+    grid = condition_set({"high": 8, "low": 1}, [0.1, 1, 10])
+    order = spread_conditions(grid)
+    assert sorted(order) == sorted(grid)
+    assert order[0][1] == 1.0, "the middle SBR first"
+    lo = {m for m, _ in order[:3]}
+    assert lo == {1.0, 8.0}, "the first three cover both photon levels"
 
 
 def test_attach_refuses_overlap_missing_and_foreign(data, whole):
@@ -112,16 +131,13 @@ def test_variants_equal_synthesize_variant_on_the_full_frame(data, whole):
     the same random stream, gives the same variants bit for bit."""
     from spl_al.data.seeds import STREAM_VARIANT, sample_rng
     from spl_al.photon import synthesize_variant
-    from spl_al.variants import draw_variant_conditions
 
-    conditions = default_conditions(data)
+    conditions = default_conditions(data)[:3]
     for i in range(len(data)):
         rng = sample_rng(5, STREAM_VARIANT, data.uid[i])
-        picks = draw_variant_conditions(rng, conditions, 3)
         valid = data.valid[i]
         refl = np.where(valid, data.reflectance[i], 0.0)
-        for j, p in enumerate(picks):
-            m, s = conditions[p]
+        for j, (m, s) in enumerate(conditions):
             full = synthesize_variant(data.depth_m[i], refl, valid, m, s, data.sensor, rng)
             np.testing.assert_array_equal(whole.depth_m[i, j], full.astype(np.float32))
 

@@ -36,8 +36,8 @@ def _group_outputs(model, depth_m, valid, idx, n_images, device, pixel_features=
     """Forward the first ``n_images`` images of groups ``idx`` in one pass.
 
     Returns probs (b, G, units, C) float32, pixel features (b, G, units, d) (segmentation
-    with ``pixel_features`` only, else None),
-    pooled features (b, G, d), unit mask (b, units) or None (classification).
+    with ``pixel_features`` only, else None), pooled features (b, G, d), and the unit
+    masks of every image (b, G, units) or None (classification).
     """
     b = len(idx)
     d = np.asarray(depth_m[idx, :n_images]).reshape(b * n_images, *depth_m.shape[2:])
@@ -51,7 +51,8 @@ def _group_outputs(model, depth_m, valid, idx, n_images, device, pixel_features=
             None,
         )
     c, dim = probs.shape[1], feats.shape[1]
-    obs_valid = vmask.view(b, n_images, -1)[:, 0]  # (b, units)
+    image_valid = vmask.view(b, n_images, -1)  # (b, G, units)
+    obs_valid = image_valid[:, 0]
     pooled = pool_pixels(feats, obs_valid.repeat_interleave(n_images, 0).view_as(vmask))
 
     def per_unit(t: torch.Tensor, k: int) -> np.ndarray:  # (b*G, k, H, W) -> (b, G, units, k)
@@ -61,7 +62,7 @@ def _group_outputs(model, depth_m, valid, idx, n_images, device, pixel_features=
         per_unit(probs, c),
         per_unit(feats, dim) if pixel_features else None,
         pooled.view(b, n_images, dim).cpu().numpy(),
-        obs_valid.cpu().numpy(),
+        image_valid.cpu().numpy(),
     )
 
 
@@ -114,15 +115,16 @@ def compute_inputs(
     scored = needs - {"labeled_features"}
     badge_pixels = task == "segmentation" and "grad_embedding" in needs
     for s in range(0, len(unl) if scored else 0, per_batch):
-        probs, pix_feats, feats, units_valid = _group_outputs(
+        probs, pix_feats, feats, image_valid = _group_outputs(
             model, depth_m, valid, unl[s : s + per_batch], n_images, device, badge_pixels
         )
+        units_valid = None if image_valid is None else image_valid[:, 0]
         if "entropy" in needs:
             add("entropy", entropy_score(probs[:, 0], units_valid))
         if "margin" in needs:
             add("margin", margin_score(probs[:, 0], units_valid))
         if "margin_inconsistency" in needs:
-            gamma, d = margin_and_inconsistency(probs, units_valid)
+            gamma, d = margin_and_inconsistency(probs, units_valid, image_valid)
             add("gamma", gamma)
             add("inconsistency", d)
         if "features" in needs:

@@ -2,17 +2,24 @@
 
 For every observed image I_obs,i, M variants I_syn,i,j = ``synthesize_variant`` of
 the observed image's own reconstructed depth and reflectivity (not the clean
-scene) at conditions (msppp_j, sbr_j) drawn from a condition set; with the
-observed image they form the sample group S_i (``Dataset.groups``). The photons
+scene) at conditions (msppp_j, sbr_j); with the observed image they form the sample
+group S_i (``Dataset.groups``).
+
+Conditions are systematic: variant j of *every* group is made at the same condition
+j of one ordered list, so the inconsistency d_i of DUIS compares like with like
+across groups, and the first m variants of a group are exactly the variants an
+M = m run would make (the M sweep is nested). The default list orders the dataset's
+MSPPP levels x SBR values so that every prefix spreads over the grid
+(``spread_conditions``): with the default levels (10, 5, 2) and SBR (0.2, 1, 5),
+(5, 1), (2, 0.2), (10, 5), (10, 0.2), (2, 5), ... The photons
 are simulated and reconstructed on the bounding box of the observed image's
 returns (``spl_al.data.observe.image_through_photons``): bit-identical to
 ``synthesize_variant`` on the whole frame, and faster.
 
-Seeding: sample i's conditions and photons come from ``sample_rng(seed,
-STREAM_VARIANT, uid_i)``. The M conditions are drawn without replacement from the
-set (with replacement when M exceeds its size). A sample's variants therefore do
-not depend on the shard, the worker count, or the other samples: shards can be
-generated anywhere (one cluster job each) and merged with ``attach_variants``.
+Seeding: sample i's photons come from ``sample_rng(seed, STREAM_VARIANT, uid_i)``.
+A sample's variants therefore do not depend on the shard, the worker count, or the
+other samples: shards can be generated anywhere (one cluster job each) and merged
+with ``attach_variants``.
 """
 
 from __future__ import annotations
@@ -103,56 +110,83 @@ def _check_conditions(conditions) -> list[tuple[float, float]]:
     return out
 
 
+def spread_conditions(conditions) -> list[tuple[float, float]]:
+    """``conditions`` reordered so that every prefix spreads over them.
+
+    In (log msppp, log sbr), each scaled to [0, 1] over the set: first the condition
+    nearest the centre, then repeatedly the one farthest from all chosen so far (ties:
+    the harsher, lower msppp * sbr, first). Deterministic; a permutation of the input.
+    """
+    conds = _check_conditions(conditions)
+    pts = np.log(np.array(conds))
+    span = np.ptp(pts, axis=0)
+    pts = (pts - pts.min(axis=0)) / np.where(span > 0, span, 1.0)
+    harsh = np.array([m * s for m, s in conds])
+    order = [int(np.lexsort((harsh, np.linalg.norm(pts - 0.5, axis=1)))[0])]
+    while len(order) < len(conds):
+        dist = np.min(np.linalg.norm(pts[:, None] - pts[order][None], axis=2), axis=1)
+        dist[order] = -1.0
+        order.append(int(np.lexsort((harsh, -np.round(dist, 9)))[0]))
+    return [conds[k] for k in order]
+
+
 def default_conditions(dataset: Dataset) -> list[tuple[float, float]]:
-    """The dataset's own levels x SBR values (``meta``), else the defaults: 9 conditions."""
-    return condition_set(
-        dataset.meta.get("levels", DEFAULT_LEVELS), dataset.meta.get("sbr_values", DEFAULT_SBR)
+    """The dataset's own levels x SBR values (``meta``), else the defaults (9
+    conditions), in ``spread_conditions`` order."""
+    return spread_conditions(
+        condition_set(
+            dataset.meta.get("levels", DEFAULT_LEVELS),
+            dataset.meta.get("sbr_values", DEFAULT_SBR),
+        )
     )
 
 
-def draw_variant_conditions(rng: np.random.Generator, conditions, n_variants: int) -> np.ndarray:
-    """(n_variants,) indices into ``conditions``: without replacement while possible."""
-    replace = n_variants > len(conditions)
-    return rng.choice(len(conditions), size=n_variants, replace=replace)
+def variant_conditions(dataset: Dataset, n_variants: int, conditions=None):
+    """The M conditions, in order: variant j of every group is made at entry j.
 
-
-def variants_of_image(depth_m, reflectance, conditions, n_variants, sensor, rng, method="pooled"):
-    """The M variants of one observed image.
-
-    Returns (depth (M, H, W) float32 NaN at voids, msppp (M,), sbr (M,)). An observed
-    image without valid pixels gives void variants; a reflectance that is zero on
-    every valid pixel is replaced by uniform reflectance.
+    ``conditions`` (a list of at least M (msppp, sbr) pairs, used in its order) or the
+    dataset's ``default_conditions``, repeated when M exceeds them (the repeats are
+    new photon draws at the same conditions).
     """
-    picks = draw_variant_conditions(rng, conditions, n_variants)
+    if conditions is None:
+        base = default_conditions(dataset)
+        return [base[j % len(base)] for j in range(int(n_variants))]
+    conds = _check_conditions(conditions)
+    if len(conds) < n_variants:
+        raise ValueError(
+            f"conditions list {len(conds)} (msppp, sbr) pairs for M = {n_variants} variants; "
+            "give at least M (variant j uses entry j)."
+        )
+    return conds[: int(n_variants)]
+
+
+def variants_of_image(depth_m, reflectance, conditions, sensor, rng, method="pooled"):
+    """The M variants of one observed image, variant j at ``conditions[j]``.
+
+    Returns depth (M, H, W) float32, NaN at voids. An observed image without valid
+    pixels gives void variants; a reflectance that is zero on every valid pixel is
+    replaced by uniform reflectance.
+    """
     depth = np.asarray(depth_m)
     valid = np.isfinite(depth)
-    out = np.full((n_variants, *depth.shape), np.nan, np.float32)
+    out = np.full((len(conditions), *depth.shape), np.nan, np.float32)
     refl = None
     if reflectance is not None and (np.asarray(reflectance)[valid] > 0).any():
         refl = np.where(valid, reflectance, 0.0)
-    msppp = np.array([conditions[p][0] for p in picks])
-    sbr = np.array([conditions[p][1] for p in picks])
     if valid.any():
-        for j in range(n_variants):
+        for j, (msppp, sbr) in enumerate(conditions):
             # synthesize_variant (simulate, then reconstruct), on the returns' bounding box.
-            out[j] = image_through_photons(
-                depth, refl, valid, msppp[j], sbr[j], sensor, rng, method
-            )[0]
-    return out, msppp, sbr
+            out[j] = image_through_photons(depth, refl, valid, msppp, sbr, sensor, rng, method)[0]
+    return out
 
 
-def _variant_chunk(depth, reflectance, uid, conditions, n_variants, sensor, seed, method):
-    n = len(depth)
-    out = np.empty((n, n_variants, *depth.shape[1:]), np.float32)
-    msppp = np.empty((n, n_variants))
-    sbr = np.empty((n, n_variants))
-    for k in range(n):
+def _variant_chunk(depth, reflectance, uid, conditions, sensor, seed, method):
+    out = np.empty((len(depth), len(conditions), *depth.shape[1:]), np.float32)
+    for k in range(len(depth)):
         rng = sample_rng(seed, STREAM_VARIANT, uid[k])
         refl = None if reflectance is None else reflectance[k]
-        out[k], msppp[k], sbr[k] = variants_of_image(
-            depth[k], refl, conditions, n_variants, sensor, rng, method
-        )
-    return out, msppp, sbr
+        out[k] = variants_of_image(depth[k], refl, conditions, sensor, rng, method)
+    return out
 
 
 def shard_indices(n_samples: int, shard: tuple[int, int]) -> np.ndarray:
@@ -182,7 +216,8 @@ def generate_variants(
         dataset: observed images with their reflectivity (``dataset.reflectance``;
             None = uniform) and the sensor they were observed with.
         n_variants: M, variants per observed image.
-        conditions: list of (msppp, sbr) to draw from; default ``default_conditions``.
+        conditions: at least M (msppp, sbr) pairs, variant j at entry j; default
+            ``default_conditions`` (``variant_conditions``).
         seed: variant seed (independent of the dataset's seed).
         shard: (index, count): this call makes block ``index`` of ``count`` blocks.
         workers: processes (None = all cores); results do not depend on it.
@@ -204,9 +239,7 @@ def generate_variants(
     method = dataset.meta.get("reconstruct_method", "pooled") if method is None else method
     if method not in METHODS:
         raise ValueError(f"method must be one of {METHODS}, got {method!r}.")
-    conditions = (
-        default_conditions(dataset) if conditions is None else _check_conditions(conditions)
-    )
+    conditions = variant_conditions(dataset, int(n_variants), conditions)
     far = np.nanmax(dataset.depth_m) if dataset.valid.any() else 0.0
     # The last bin reaches half a bin past max_depth_m; stored depths round by < 1.25 mm.
     if sensor.depth_to_bin(far) > sensor.t_max:
@@ -223,7 +256,6 @@ def generate_variants(
             None if refl is None else refl[idx[c]],
             dataset.uid[idx[c]],
             conditions,
-            int(n_variants),
             sensor,
             int(seed),
             method,
@@ -232,14 +264,9 @@ def generate_variants(
     ]
     parts = run_chunks(_variant_chunk, args, workers)
     h, w = dataset.image_shape
-    if parts:
-        depth, msppp, sbr = (np.concatenate([p[k] for p in parts]) for k in range(3))
-    else:
-        depth, msppp, sbr = (
-            np.empty((0, n_variants, h, w), np.float32),
-            np.empty((0, n_variants)),
-            np.empty((0, n_variants)),
-        )
+    depth = np.concatenate(parts) if parts else np.empty((0, n_variants, h, w), np.float32)
+    msppp = np.tile([m for m, _ in conditions], (len(idx), 1))
+    sbr = np.tile([s for _, s in conditions], (len(idx), 1))
     settings = {
         "n_variants": int(n_variants),
         "conditions": [list(c) for c in conditions],

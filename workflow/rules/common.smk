@@ -1,6 +1,9 @@
 # Shared names and input functions; rules live in the other .smk files.
 from pathlib import Path
 
+from snakemake.logging import logger
+
+from spl_al.data.external import folder_has_levels
 from spl_al.experiment.plan import (
     check_plan,
     dataset_method,
@@ -110,6 +113,30 @@ def query_group(wildcards):
     return f"round_{wildcards.dataset}_{wildcards.method}_{wildcards.seed}_{r}"
 
 
+def has_levels(dataset):
+    """Whether the dataset's images carry MSPPP levels: synthetic data and stand-ins do,
+    a folder only when its files hold them or ``levels_file`` assigns them."""
+    entry = config["datasets"][dataset]
+    if entry["source"] != "folder" or not entry.get("path") or entry.get("levels_file"):
+        return True
+    return folder_has_levels(entry["path"], entry.get("depth_key", "depth_ssp"))
+
+
+NO_LEVELS_NOTE = (
+    "files carry no MSPPP level; give `levels_file` to split by level "
+    "(the per-level table and curves are skipped)"
+)
+
+
+def dataset_notes(dataset):
+    return [] if has_levels(dataset) else [NO_LEVELS_NOTE]
+
+
+for _dataset in DATASETS:
+    for _note in dataset_notes(_dataset):
+        logger.info(f"{_dataset}: {_note}.")
+
+
 def dataset_outputs(dataset):
     tables = f"{RESULTS}/{dataset}/tables"
     figures = f"{RESULTS}/{dataset}/figures"
@@ -122,11 +149,14 @@ def dataset_outputs(dataset):
         out += [f"{tables}/{table}.{ext}" for ext in ("csv", "md", "tex")]
     if "budget" in config["datasets"][dataset].get("experiments", {}):
         out += [f"{figures}/curves.{ext}" for ext in ("png", "pdf")]
-        out += [f"{figures}/level_curves.{ext}" for ext in ("png", "pdf")]
+        if has_levels(dataset):
+            out += [f"{figures}/level_curves.{ext}" for ext in ("png", "pdf")]
     return out
 
 
 def dataset_tables(dataset):
-    """The tables a dataset's experiments ask for (budget, levels, ablation, sensitivity)."""
+    """The tables a dataset's experiments ask for (budget, levels, ablation,
+    sensitivity); no levels table for images without MSPPP levels."""
     exps = config["datasets"][dataset].get("experiments", {})
-    return [t for t in ("budget", "levels", "ablation", "sensitivity") if t in exps]
+    kinds = ("budget", "levels", "ablation", "sensitivity")
+    return [t for t in kinds if t in exps and (t != "levels" or has_levels(dataset))]

@@ -45,13 +45,6 @@ rule curves:
             subcategory="Curves",
         ),
         pdf=f"{RESULTS}/{{dataset}}/figures/curves.pdf",
-        levels_png=report(
-            f"{RESULTS}/{{dataset}}/figures/level_curves.png",
-            caption="../report/level_curves.rst",
-            category="{dataset}",
-            subcategory="Curves",
-        ),
-        levels_pdf=f"{RESULTS}/{{dataset}}/figures/level_curves.pdf",
     log:
         f"{RESULTS}/logs/{{dataset}}/curves.log",
     benchmark:
@@ -66,8 +59,30 @@ rule curves:
         methods=lambda w: config["datasets"][w.dataset]["experiments"]["budget"][
             "methods"
         ],
+        levels=False,
     script:
         "../scripts/curves.py"
+
+
+# Only for datasets whose images have MSPPP levels (see has_levels in common.smk).
+use rule curves as level_curves with:
+    output:
+        png=report(
+            f"{RESULTS}/{{dataset}}/figures/level_curves.png",
+            caption="../report/level_curves.rst",
+            category="{dataset}",
+            subcategory="Curves",
+        ),
+        pdf=f"{RESULTS}/{{dataset}}/figures/level_curves.pdf",
+    log:
+        f"{RESULTS}/logs/{{dataset}}/level_curves.log",
+    benchmark:
+        f"{RESULTS}/benchmarks/{{dataset}}/level_curves.tsv"
+    params:
+        methods=lambda w: config["datasets"][w.dataset]["experiments"]["budget"][
+            "methods"
+        ],
+        levels=True,
 
 
 rule summary:
@@ -90,5 +105,7 @@ rule summary:
     resources:
         mem_mb=2000,
         runtime=10,
+    params:
+        notes=lambda w: dataset_notes(w.dataset),
     script:
         "../scripts/summary.py"

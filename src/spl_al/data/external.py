@@ -14,6 +14,14 @@ File types: ``.npz`` (arrays by key: ``depth_key``, ``clean_key``, ``reflectance
 ``label_key``; optional scalars ``msppp``, ``sbr``, ``level``), ``.npy`` (one depth
 array), ``.png`` (16-bit, depth in millimetres; 8-bit PNGs are refused).
 
+Conditions: files may hold ``level`` (high / medium / low), ``msppp`` and ``sbr``; the
+authors' release holds none. A ``levels_file`` CSV (``file,level[,msppp,sbr]``, file
+names relative to ``root``) assigns them instead; without either, every image has
+level "unknown" and per-level results cannot be made.
+
+Subsets: ``n_per_class`` keeps a seeded, stratified subset of N files per class
+before anything is read (the release has 400 per class; the paper used 100).
+
 Depth is in metres after ``depth_scale``; zero or non-finite depth is a void.
 Negative, NaN / inf depths and depths beyond the sensor's reach become voids too;
 they are counted per file, reported with a warning, and recorded in
@@ -33,7 +41,7 @@ from pathlib import Path
 import numpy as np
 
 from spl_al.data.dataset import LEVELS, Dataset, sensor_to_dict
-from spl_al.data.seeds import STREAM_SPLIT, sample_rng
+from spl_al.data.seeds import STREAM_SPLIT, STREAM_SUBSET, sample_rng
 from spl_al.data.synthetic import stratified_split
 from spl_al.labels import IGNORE_INDEX
 from spl_al.photon import SensorParams
@@ -123,6 +131,77 @@ def _list_files(folder: Path) -> list[Path]:
     )
 
 
+def _read_levels_file(path, root: Path, names: list[str]) -> dict[str, dict]:
+    """{file name: {"level", optional "msppp", "sbr"}} from a ``file,level[,msppp,sbr]`` CSV,
+    checked against the loaded files ``names`` (paths relative to ``root``)."""
+    import csv
+
+    path = Path(path)
+    try:
+        with open(path, newline="", encoding="utf-8") as f:
+            rows = list(csv.DictReader(f))
+            header = [] if not rows else list(rows[0])
+    except (OSError, UnicodeDecodeError, csv.Error) as exc:
+        raise ValueError(f"{path}: levels_file cannot be read ({exc}).") from None
+    if not rows or not {"file", "level"} <= set(header):
+        raise ValueError(
+            f"{path}: levels_file needs a header with columns file,level[,msppp,sbr] "
+            f"and one row per file; found columns {header or 'none'}."
+        )
+    known = set(names)
+    out: dict[str, dict] = {}
+    for line, row in enumerate(rows, start=2):
+        name = (row.get("file") or "").strip()
+        if name in out:
+            raise ValueError(f"{path}, line {line}: file {name!r} is listed twice.")
+        if name not in known:
+            raise ValueError(
+                f"{path}, line {line}: file {name!r} is not among the loaded files of {root}."
+            )
+        level = (row.get("level") or "").strip()
+        if level not in LEVELS:
+            raise ValueError(
+                f"{path}, line {line}: level {level!r}; expected one of {', '.join(LEVELS)}."
+            )
+        entry = {"level": level}
+        for key in ("msppp", "sbr"):
+            text = (row.get(key) or "").strip()
+            if not text:
+                continue
+            try:
+                value = float(text)
+            except ValueError:
+                value = float("nan")
+            if not (np.isfinite(value) and value > 0):
+                raise ValueError(f"{path}, line {line}: {key} {text!r}; expected a number > 0.")
+            entry[key] = value
+        out[name] = entry
+    missing = [n for n in names if n not in out]
+    if missing:
+        raise ValueError(
+            f"{path}: no level for {len(missing)} loaded files (e.g. {missing[0]}); "
+            "list every file once."
+        )
+    return out
+
+
+def _subset_per_class(entries, n_per_class: int, seed: int, root: Path):
+    """A seeded subset of ``n_per_class`` entries of every class (file order kept)."""
+    if int(n_per_class) != n_per_class or n_per_class < 1:
+        raise ValueError(f"n_per_class must be an integer >= 1, got {n_per_class!r}.")
+    rng = sample_rng(seed, STREAM_SUBSET)
+    keep = []
+    for cls in sorted({e[1] for e in entries}):
+        members = [k for k, e in enumerate(entries) if e[1] == cls]
+        if len(members) < n_per_class:
+            raise ValueError(
+                f"{root}: class {cls!r} has {len(members)} files; n_per_class={n_per_class} "
+                "needs at least that many in every class."
+            )
+        keep += rng.choice(members, size=int(n_per_class), replace=False).tolist()
+    return [entries[k] for k in sorted(keep)]
+
+
 def _discover(root: Path, label_key) -> tuple[str, list[tuple[Path, str, Path | None]]]:
     """(layout, [(file, class name or "", label file or None)])."""
     if not root.is_dir():
@@ -192,6 +271,8 @@ def load_folder(
     test_fraction: float = 0.3,
     seed: int = 0,
     sensor: SensorParams | None = None,
+    levels_file=None,
+    n_per_class: int | None = None,
 ) -> Dataset:
     """Load a folder of SPL depth images as a Dataset of observed images.
 
@@ -211,10 +292,14 @@ def load_folder(
         depth_scale: factor to metres of ``.npz``/``.npy`` depth (PNG is millimetres).
         test_fraction, seed: stratified split (per class for classification).
         sensor: SPL timing for variants; default ``SensorParams.paper_real()``.
+        levels_file: CSV ``file,level[,msppp,sbr]`` assigning every loaded file its
+            MSPPP level (and condition); it overrides levels stored in the files.
+        n_per_class: keep a seeded (``seed``), stratified subset of this many files per
+            class (classification only); None keeps every file.
 
     Returns:
-        Dataset (level "unknown" and NaN conditions unless files hold ``level``,
-        ``msppp``, ``sbr``), with ``meta["load_report"]`` of the pixels made void.
+        Dataset (level "unknown" and NaN conditions unless the files or
+        ``levels_file`` give them), with ``meta["load_report"]`` of the pixels made void.
     """
     root = Path(root)
     sensor = SensorParams.paper_real() if sensor is None else sensor
@@ -222,6 +307,10 @@ def load_folder(
         raise ValueError(f"depth_scale must be > 0, got {depth_scale!r}.")
     layout, entries = _discover(root, label_key)
     segmentation = label_key is not None or layout == "segmentation-pairs"
+    if n_per_class is not None:
+        if segmentation:
+            raise ValueError("n_per_class applies to classification folders only.")
+        entries = _subset_per_class(entries, n_per_class, seed, root)
     keys = {
         "depth": depth_key,
         "clean": clean_key,
@@ -353,6 +442,12 @@ def load_folder(
         groups = labels
         task = "classification"
 
+    if levels_file is not None:
+        given = _read_levels_file(
+            levels_file, root, [str(r["path"].relative_to(root)) for r in records]
+        )
+        for r in records:
+            r.update(given[str(r["path"].relative_to(root))])
     msppp = np.array([float(r.get("msppp", np.nan)) for r in records])
     sbr = np.array([float(r.get("sbr", np.nan)) for r in records])
     level = np.array([str(r.get("level", "unknown")) for r in records], dtype="<U7")
@@ -381,6 +476,8 @@ def load_folder(
             "clean_key": clean_key if len(clean) == n else None,
             "reflectance_key": reflectance_key if len(refl) == n else None,
             "depth_scale": float(depth_scale),
+            "levels_file": None if levels_file is None else str(Path(levels_file).resolve()),
+            "n_per_class": None if n_per_class is None else int(n_per_class),
             "image_shape": list(shape),
             "resized_from": {str(list(s)): c for s, c in shapes.items()}
             if image_shape is not None
@@ -391,6 +488,22 @@ def load_folder(
             "load_report": report,
         },
     )
+
+
+def folder_has_levels(root, depth_key: str = "depth_ssp") -> bool:
+    """Whether a folder's files carry MSPPP levels (looks at the first ``.npz`` only;
+    ``.npy`` and ``.png`` files never do). False for a folder that does not exist."""
+    root = Path(root)
+    if not root.is_dir():
+        return False
+    first = next(iter(sorted(root.rglob("*.npz"))), None)
+    if first is None:
+        return False
+    try:
+        with np.load(first, allow_pickle=False) as z:
+            return "level" in z.files
+    except (OSError, ValueError, EOFError, zipfile.BadZipFile):
+        return False
 
 
 def _first_with_shape(records, shape) -> str:

@@ -11,6 +11,7 @@ STREAM_SCENE = 0  # procedural scene geometry
 STREAM_OBSERVE = 1  # photons of the observed image
 STREAM_VARIANT = 2  # conditions and photons of the SIV variants
 STREAM_SPLIT = 3  # train / test split and condition levels (dataset-wide)
+STREAM_SUBSET = 4  # which files of an external folder are kept (n_per_class)
 
 
 def sample_rng(seed: int, stream: int, uid: int = 0) -> np.random.Generator:

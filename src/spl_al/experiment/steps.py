@@ -36,7 +36,8 @@ def make_dataset(entry: dict, out_path) -> dict:
     """Synthesize (or import) a dataset's observed images and save them to ``out_path``.
 
     ``entry`` is the dataset's config: ``task``, ``source`` ("synthetic" or "folder"),
-    ``path``/``depth_key`` for folders, ``standin`` (synthesize when the folder is not
+    ``path``, ``depth_key``, ``reflectance_key``, ``levels_file`` and ``n_per_class``
+    for folders (``spl_al.data.load_folder``), ``standin`` (synthesize when the folder is not
     given) and ``synthesis`` (keyword arguments of the generator).
     """
     from spl_al.data import load_folder, make_classification_dataset, make_segmentation_dataset
@@ -52,9 +53,12 @@ def make_dataset(entry: dict, out_path) -> dict:
         dataset = load_folder(
             root,
             depth_key=entry.get("depth_key", "depth_ssp"),
+            reflectance_key=entry.get("reflectance_key"),
             image_shape=synthesis.get("image_shape"),
             test_fraction=synthesis.get("test_fraction", 0.3),
             seed=synthesis.get("seed", 0),
+            levels_file=entry.get("levels_file"),
+            n_per_class=entry.get("n_per_class"),
         )
     elif entry["source"] == "folder" and not entry.get("standin", False):
         raise ValueError(
@@ -197,7 +201,7 @@ def train_round(
     """
     import torch
 
-    from spl_al.data import Dataset
+    from spl_al.data import LEVELS, Dataset
     from spl_al.training import TrainConfig, evaluate, train
 
     _set_threads(threads)
@@ -251,10 +255,12 @@ def train_round(
         "ratio": pool_idx.size / n_total,
         "metric": key,
         "value": float(metrics[key]),
+        # Images without a known MSPPP level ("unknown": folder data without
+        # conditions) count in "value" but belong to no level.
         "per_level": {
             level: float(v[key])
             for level, v in metrics.get("per_level", {}).items()
-            if v[key] is not None
+            if v[key] is not None and level in LEVELS
         },
         "synthetic_standin": bool(dataset.meta.get("synthetic_standin", False)),
         "train_images": int(images.shape[0]),
@@ -376,20 +382,22 @@ def make_table(metrics_paths, kind: str, experiments: dict, sweeps: dict, out_st
     report.write_table(frame, out_stem, caption=caption)
 
 
-def make_curves(metrics_paths, methods, png, pdf, levels_png, levels_pdf, title: str) -> None:
-    """Budget curves (overall and per MSPPP level) with ±std bands."""
+def make_curves(metrics_paths, methods, png, pdf, title: str, per_level: bool = False) -> None:
+    """Budget curves with ±std bands: overall, or one panel per MSPPP level."""
     from spl_al import report
 
     df = report.load_records(metrics_paths)
     df = df[df["method"].isin(methods)]
-    report.plot_curves(df, png, pdf, methods=methods, title=title)
-    report.plot_level_curves(df, levels_png, levels_pdf, methods=methods, title=title)
+    plot = report.plot_level_curves if per_level else report.plot_curves
+    plot(df, png, pdf, methods=methods, title=title)
 
 
-def make_summary(metrics_paths, out_path) -> dict:
-    """Per method: area under the budget curve and final value (JSON)."""
+def make_summary(metrics_paths, out_path, notes=()) -> dict:
+    """Per method: area under the budget curve and final value (JSON), with ``notes``
+    (one sentence each, e.g. why per-level results are missing)."""
     from spl_al import report
 
     result = report.summary(report.load_records(metrics_paths))
+    result["notes"] = [str(n) for n in notes]
     write_json(result, out_path)
     return result

@@ -24,7 +24,7 @@ from spl_al.strategies.units import check_points, check_probs, top_gap, top_k, u
 _CHUNK_ELEMENTS = 1 << 23
 
 
-def margin_and_inconsistency(probs, valid=None) -> tuple[np.ndarray, np.ndarray]:
+def margin_and_inconsistency(probs, valid=None, image_valid=None) -> tuple[np.ndarray, np.ndarray]:
     """DUIS's margin gamma and inconsistency d of each group (steps 3 above).
 
     Args:
@@ -32,23 +32,50 @@ def margin_and_inconsistency(probs, valid=None) -> tuple[np.ndarray, np.ndarray]
             group (observed first; one unit per image for classification).
         valid: optional (groups, units) bool mask of the units that count (for
             segmentation: the observed image's valid pixels, where the label applies).
+        image_valid: optional (groups, M+1, units) bool mask of the units each image
+            holds (segmentation: a variant's void pixels carry no prediction).
 
     Returns:
-        gamma, d: (groups,) float64. gamma = mean over valid units of the top1 - top2
-        gap of the mean prediction qbar; d = mean over valid units and over the M+1
-        images of KL(q_m || qbar) = sum_c q_m,c log(q_m,c / qbar_c) (terms with
-        q_m,c = 0 are 0). A group without valid units gets NaN for both.
+        gamma, d: (groups,) float64. With V_m the units valid in image m (V_0 = ``valid``
+        when given) and qbar(u) the mean of q_m(u) over the images m with u in V_m:
+
+            gamma = mean_{u in V_0} [ qbar(u, top1) - qbar(u, top2) ]
+            d     = mean_m  mean_{u in V_m and V_0}  KL( q_m(u) || qbar(u) )
+
+        with KL(q || qbar) = sum_c q_c log(q_c / qbar_c) (terms with q_c = 0 are 0), and
+        the outer mean over the images that hold at least one such unit. Without
+        ``image_valid`` every image holds every unit (classification; the paper's
+        equations). A group without valid units gets NaN for both.
     """
     p = check_probs(probs, 4)
-    qbar = p.mean(axis=1)  # (groups, units, C)
+    g, n_images, n_units, _ = p.shape
+    if image_valid is None:
+        held = np.ones((g, n_images, n_units), dtype=bool)
+    else:
+        held = np.asarray(image_valid, dtype=bool)
+        if held.shape != p.shape[:3]:
+            raise ValueError(
+                f"image_valid must have shape (groups, M+1, units) = {p.shape[:3]}, "
+                f"got {held.shape}."
+            )
+    if valid is None:
+        valid = held[:, 0] if image_valid is not None else None
+    counted = held if valid is None else held & np.asarray(valid, dtype=bool)[:, None]
+    # qbar over the images that hold the unit (all of them where none does)
+    n_held = held.sum(axis=1, keepdims=True)  # (groups, 1, units)
+    weight = np.where(n_held > 0, held / np.maximum(n_held, 1), 1.0 / n_images)
+    qbar = np.einsum("gmu,gmuc->guc", weight, p)  # (groups, units, C)
     gamma = unit_mean(top_gap(qbar), valid)
-    # q_m > 0 implies qbar >= q_m / (M+1) > 0, so the logs below are finite where used
-    positive = p > 0
+    # q_m > 0 at a held unit implies qbar > 0 there, so the logs below are finite where used
+    positive = (p > 0) & held[..., None]
     log_ratio = np.log(np.where(positive, p, 1.0)) - np.log(
         np.where(positive, np.broadcast_to(qbar[:, None], p.shape), 1.0)
     )
     kl = np.maximum(np.sum(np.where(positive, p * log_ratio, 0.0), axis=-1), 0.0)
-    d = unit_mean(kl.mean(axis=1), valid)
+    per_image = unit_mean(kl.reshape(g * n_images, n_units), counted.reshape(g * n_images, -1))
+    d = unit_mean(
+        np.nan_to_num(per_image.reshape(g, n_images)), ~np.isnan(per_image).reshape(g, -1)
+    )
     return gamma, d
 
 

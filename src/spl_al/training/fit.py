@@ -85,6 +85,32 @@ def flatten_groups(depth_m, valid, targets, variants: bool = True):
     )
 
 
+def random_shift(
+    x: torch.Tensor, y: torch.Tensor | None, max_px: tuple[int, int], gen: torch.Generator
+) -> tuple[torch.Tensor, torch.Tensor | None]:
+    """Translate each image of a batch by its own random integer offset.
+
+    Args:
+        x: (B, C, H, W) network input (normalised depth, validity); what shifts in is
+            zeros, i.e. voids.
+        y: (B, H, W) masks (shifted alike, IGNORE_INDEX shifted in) or None.
+        max_px: (rows, cols) largest offset; offsets are uniform on [-max, max].
+        gen: CPU generator of the offsets (reproducible on any device).
+    """
+    sy, sx = max_px
+    b, _, h, w = x.shape
+    dy = torch.randint(-sy, sy + 1, (b,), generator=gen).to(x.device)
+    dx = torch.randint(-sx, sx + 1, (b,), generator=gen).to(x.device)
+    padded = F.pad(x, (sx, sx, sy, sy))
+    rows = (torch.arange(h, device=x.device)[None] + sy - dy[:, None])[:, :, None]  # (B, H, 1)
+    cols = (torch.arange(w, device=x.device)[None] + sx - dx[:, None])[:, None, :]  # (B, 1, W)
+    batch = torch.arange(b, device=x.device)[:, None, None]
+    x = padded.permute(0, 2, 3, 1)[batch, rows, cols].permute(0, 3, 1, 2)
+    if y is not None:
+        y = F.pad(y, (sx, sx, sy, sy), value=IGNORE_INDEX)[batch, rows, cols]
+    return x, y
+
+
 class ProgressLog:
     """Writes progress lines to stderr (None), an open text stream, or a file path (appended)."""
 
@@ -120,9 +146,10 @@ def train(
     """Train ``model`` on images and their labels (or masks); returns the model.
 
     Mini-batch SGD with momentum and weight decay, a cosine learning-rate schedule
-    per step, optional horizontal flips, masked cross-entropy (segmentation ignores
-    IGNORE_INDEX and every invalid pixel). With ``cfg.from_scratch`` the weights are
-    first re-initialised from ``seed``; batch order and flips come from a CPU
+    per step, optional horizontal flips and random shifts, masked cross-entropy
+    (segmentation ignores IGNORE_INDEX and every invalid pixel). With
+    ``cfg.from_scratch`` the weights are first re-initialised from ``seed``; batch
+    order, flips and shifts come from a CPU
     ``torch.Generator`` seeded with ``seed``, so the same seed, data, device and thread
     count give the same weights bit for bit. The whole set lives on the device as one
     tensor and batches are index lookups (no DataLoader overhead).
@@ -173,6 +200,7 @@ def train(
         weight_decay=cfg.weight_decay,
     )
     batch = min(cfg.batch_size, n)
+    shift_px = tuple(round(cfg.shift * s) for s in depth_m.shape[1:])
     per_epoch = max(1, n // batch)  # drop the ragged last batch; the next permutation covers it
     total = cfg.total_steps(n)
     n_epochs = math.ceil(total / per_epoch)
@@ -210,6 +238,12 @@ def train(
                         xb = torch.where(flip.view(-1, 1, 1, 1), xb.flip(-1), xb)
                         if task == "segmentation":
                             yb = torch.where(flip.view(-1, 1, 1), yb.flip(-1), yb)
+                    if max(shift_px) > 0:
+                        xb, yb_shifted = random_shift(
+                            xb, yb if task == "segmentation" else None, shift_px, gen
+                        )
+                        if task == "segmentation":
+                            yb = yb_shifted
                     if cfg.channels_last:
                         xb = xb.contiguous(memory_format=torch.channels_last)
                     logits, _ = model(xb)

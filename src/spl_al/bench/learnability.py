@@ -1,0 +1,281 @@
+"""Learnability benchmark: ``python -m spl_al.bench learnability [DATASET.npz ...]``.
+
+How well does the learner do with few labels? For each dataset: test accuracy (mIoU
+for segmentation) of the configured model and training recipe against the number of
+randomly labeled groups (about 2, 5, 10, 25 and 100% of the training pool), trained
+on the observed images only and on every image of the labeled groups (the variants
+too), mean ± std over seeds, beside a linear reference on the same labeled sets:
+
+- classification: logistic regression on the image standardised as the network sees
+  it (``spl_al.models.to_input``), bilinearly downsampled to 16x16, plus the
+  downsampled validity mask (512 features);
+- segmentation: per-pixel logistic regression on local depth features (range, row,
+  3x3 and 7x7 mean depth offsets, 3x3 spread, gradients, local validity).
+
+Without arguments it runs the default config's datasets (synthesised as the pipeline
+makes them) and SPL digits, a folder dataset nothing was tuned on
+(``spl_al.data.digits``). A dataset file must carry variants (``python -m
+spl_al.data variants``) for the "with variants" rows.
+"""
+
+from __future__ import annotations
+
+import argparse
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+
+from spl_al.bench.timing import markdown_table
+from spl_al.pool import initial_labeled_set
+
+FRACTIONS = (0.02, 0.05, 0.10, 0.25, 1.0)
+SEEDS = (1, 2, 3)
+LINEAR_SIZE = 16
+
+
+# ---------------------------------------------------------------- linear references
+
+
+def _linear_image_features(depth_m, valid) -> np.ndarray:
+    """(n, 2 * 16 * 16): standardised depth and validity, bilinearly downsampled."""
+    import torch.nn.functional as F
+
+    from spl_al.models import to_input
+
+    x = to_input(depth_m, valid)
+    small = F.interpolate(x, size=(LINEAR_SIZE, LINEAR_SIZE), mode="bilinear", align_corners=False)
+    return small.reshape(len(x), -1).numpy()
+
+
+def _box_mean(a: np.ndarray, k: int) -> np.ndarray:
+    """Mean over a k x k window (edge-padded) of each (n, H, W) image."""
+    from scipy.ndimage import uniform_filter
+
+    return uniform_filter(a, size=(1, k, k), mode="nearest")
+
+
+def _pixel_features(depth_m, valid) -> np.ndarray:
+    """(n, H, W, 9) local depth features of every pixel (voids filled with the 7x7
+    mean of valid neighbours, else 0)."""
+    d = np.where(valid, np.nan_to_num(depth_m, nan=0.0), 0.0).astype(np.float64)
+    v = valid.astype(np.float64)
+    h = d.shape[1]
+    fill7 = _box_mean(d, 7) / np.maximum(_box_mean(v, 7), 1e-6)
+    d = np.where(valid, d, fill7)
+    m3, m7 = _box_mean(d, 3), _box_mean(d, 7)
+    sd3 = np.sqrt(np.maximum(_box_mean(d * d, 3) - m3 * m3, 0.0))
+    gy, gx = np.gradient(d, axis=(1, 2))
+    row = np.broadcast_to(np.linspace(0, 1, h)[None, :, None], d.shape)
+    feats = [d / 50.0, row, d - m3, d - m7, sd3, gy, gx, _box_mean(v, 3), np.log1p(d)]
+    return np.stack([np.clip(f, -50, 50) for f in feats], axis=-1)
+
+
+def linear_reference(dataset, labeled: np.ndarray, seed: int) -> float:
+    """Test accuracy (mIoU) of the linear reference trained on samples ``labeled``."""
+    from sklearn.linear_model import LogisticRegression
+    from sklearn.preprocessing import StandardScaler
+
+    test = dataset.test_idx
+    if dataset.task == "classification":
+        x_tr = _linear_image_features(dataset.depth_m[labeled], dataset.valid[labeled])
+        y_tr = dataset.labels[labeled]
+        x_te = _linear_image_features(dataset.depth_m[test], dataset.valid[test])
+        if np.unique(y_tr).size < 2:
+            return float(np.mean(dataset.labels[test] == y_tr[0]))
+        clf = LogisticRegression(max_iter=2000).fit(x_tr, y_tr)
+        return float(np.mean(clf.predict(x_te) == dataset.labels[test]))
+    from spl_al.training.metrics import confusion_per_image, segmentation_summary
+
+    f_tr = _pixel_features(dataset.depth_m[labeled], dataset.valid[labeled])
+    keep = dataset.valid[labeled] & (dataset.labels[labeled] != 255)
+    x_tr, y_tr = f_tr[keep], dataset.labels[labeled][keep]
+    rng = np.random.default_rng(seed)
+    if len(y_tr) > 60_000:  # plenty for 9 features; keeps the fit to seconds
+        pick = rng.choice(len(y_tr), 60_000, replace=False)
+        x_tr, y_tr = x_tr[pick], y_tr[pick]
+    scaler = StandardScaler().fit(x_tr)
+    clf = LogisticRegression(max_iter=500).fit(scaler.transform(x_tr), y_tr)
+    f_te = _pixel_features(dataset.depth_m[test], dataset.valid[test])
+    pred = clf.predict(scaler.transform(f_te.reshape(-1, f_te.shape[-1]))).reshape(f_te.shape[:3])
+    target = np.where(dataset.valid[test], dataset.labels[test], 255)
+    conf = confusion_per_image(pred, target, len(dataset.classes)).sum(0)
+    return float(segmentation_summary(conf, dataset.classes)["miou"])
+
+
+# ---------------------------------------------------------------- the learner
+
+
+def learner_score(
+    dataset, labeled: np.ndarray, model_cfg: dict, fit_cfg: dict, seed: int, variants: bool
+) -> float:
+    """Test accuracy (mIoU) of the configured model trained on samples ``labeled``
+    (with their variants when ``variants``), as a pipeline round trains it."""
+    from spl_al.models import build_model
+    from spl_al.training import TrainConfig, evaluate, train
+
+    m = dataset.n_variants if variants else 0
+    depth, valid = dataset.groups(labeled, n_variants=m)
+    images = depth.reshape(-1, *depth.shape[2:])
+    targets = np.repeat(dataset.labels[labeled], depth.shape[1], axis=0)
+    cfg = dict(model_cfg)
+    model = build_model(dataset.task, len(dataset.classes), arch=cfg.pop("arch", None), **cfg)
+    fit = TrainConfig.from_dict({**fit_cfg, "log_every": 0})
+    model = train(model, images, valid.reshape(images.shape), targets, fit, seed=seed, log=_Null())
+    test = dataset.test_idx
+    metrics = evaluate(model, dataset.depth_m[test], dataset.valid[test], dataset.labels[test])
+    return float(metrics["accuracy" if dataset.task == "classification" else "miou"])
+
+
+class _Null:
+    def write(self, _text: str) -> None:
+        pass
+
+    def flush(self) -> None:
+        pass
+
+
+def budgets(n_pool: int, fractions=FRACTIONS) -> list[int]:
+    """Labeled-group counts for ``fractions`` of a pool of ``n_pool`` (at least 2 each)."""
+    return sorted({min(n_pool, max(2, round(f * n_pool))) for f in fractions})
+
+
+def learning_curves(
+    dataset, model_cfg: dict, fit_cfg: dict, fractions=FRACTIONS, seeds=SEEDS, log=print
+) -> list[dict]:
+    """One row per budget: the budget and the scores of every seed (linear reference,
+    learner on observed images, learner with variants)."""
+    pool = dataset.train_idx
+    rows = []
+    for size in budgets(len(pool), fractions):
+        row = {
+            "n": size,
+            "fraction": size / len(pool),
+            "linear": [],
+            "observed": [],
+            "variants": [],
+        }
+        for seed in seeds:
+            labeled = pool[initial_labeled_set(len(pool), size, seed)]
+            start = time.perf_counter()
+            row["linear"].append(linear_reference(dataset, labeled, seed))
+            row["observed"].append(
+                learner_score(dataset, labeled, model_cfg, fit_cfg, seed, variants=False)
+            )
+            if dataset.n_variants:
+                row["variants"].append(
+                    learner_score(dataset, labeled, model_cfg, fit_cfg, seed, variants=True)
+                )
+            log(
+                f"  n={size} seed={seed}: linear {row['linear'][-1]:.3f} "
+                f"observed {row['observed'][-1]:.3f} "
+                + (f"variants {row['variants'][-1]:.3f} " if row["variants"] else "")
+                + f"({time.perf_counter() - start:.0f} s)"
+            )
+        rows.append(row)
+    return rows
+
+
+def _cell(values: list[float]) -> str:
+    if not values:
+        return "-"
+    return f"{100 * np.mean(values):.1f} ± {100 * np.std(values):.1f}"
+
+
+def table_rows(name: str, rows: list[dict]) -> list[list[str]]:
+    return [
+        [
+            name,
+            f"{r['n']} ({100 * r['fraction']:.0f}%)",
+            _cell(r["linear"]),
+            _cell(r["observed"]),
+            _cell(r["variants"]),
+            f"{100 * (np.mean(r['variants'] or r['observed']) - np.mean(r['linear'])):+.1f}",
+        ]
+        for r in rows
+    ]
+
+
+HEADER = ["dataset", "labeled groups", "linear ref.", "learner", "learner + variants", "gain"]
+
+
+# ---------------------------------------------------------------- command line
+
+
+def _default_datasets(config_path: Path, names: list[str] | None, cache: Path):
+    """(name, Dataset, model_cfg, fit_cfg) for the config's datasets, synthesised as
+    the pipeline makes them (cached under ``cache``)."""
+    import yaml
+
+    from spl_al.data import Dataset
+    from spl_al.experiment.steps import make_dataset
+    from spl_al.variants import make_variants
+
+    config = yaml.safe_load(config_path.read_text())
+    for name, entry in config["datasets"].items():
+        if names and name not in names:
+            continue
+        path = cache / f"{name}.npz"
+        if not path.exists():
+            make_dataset(entry, cache / f"{name}_observed.npz")
+            data = Dataset.load(cache / f"{name}_observed.npz")
+            v = entry["variants"]
+            data = make_variants(data, n_variants=int(v["n"]), seed=int(v["seed"]))
+            data.save(path)
+        yield name, Dataset.load(path), entry["train"]["model"], entry["train"]["fit"]
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(prog="python -m spl_al.bench learnability")
+    parser.add_argument("datasets", nargs="*", type=Path, help="dataset .npz files (with variants)")
+    parser.add_argument("--config", type=Path, default=Path("config/config.yaml"))
+    parser.add_argument("--only", nargs="*", help="config datasets to run (default: all)")
+    parser.add_argument("--seeds", type=int, nargs="*", default=list(SEEDS))
+    parser.add_argument("--fractions", type=float, nargs="*", default=list(FRACTIONS))
+    parser.add_argument("--cache", type=Path, default=None, help="folder for synthesised data")
+    parser.add_argument("--no-digits", action="store_true", help="skip the SPL digits folder")
+    args = parser.parse_args(argv)
+
+    import yaml
+
+    from spl_al.data import Dataset, load_folder
+    from spl_al.data.digits import write_digits_folder
+    from spl_al.variants import make_variants
+
+    cache = args.cache or Path(tempfile.mkdtemp(prefix="spl-al-learnability-"))
+    cache.mkdir(parents=True, exist_ok=True)
+    entries = []
+    if not args.datasets:
+        entries = list(_default_datasets(args.config, args.only, cache))
+    # External data get the recipe of the config's first classification dataset.
+    config = yaml.safe_load(args.config.read_text())
+    cls_entry = next(e for e in config["datasets"].values() if e["task"] == "classification")
+    seg_entry = next(
+        (e for e in config["datasets"].values() if e["task"] == "segmentation"), cls_entry
+    )
+    external = list(args.datasets)
+    if not args.datasets and not args.no_digits:
+        path = cache / "spl_digits.npz"
+        if not path.exists():
+            folder = write_digits_folder(cache / "spl_digits", n_per_class=100)
+            data = make_variants(load_folder(folder), n_variants=4, seed=0)
+            data.save(path)
+        external.append(path)
+    for path in external:
+        data = Dataset.load(path)
+        entry = cls_entry if data.task == "classification" else seg_entry
+        entries.append((path.stem, data, entry["train"]["model"], entry["train"]["fit"]))
+
+    lines = []
+    for name, data, model_cfg, fit_cfg in entries:
+        print(f"{name}: {len(data.train_idx)} training groups, M = {data.n_variants}", flush=True)
+        rows = learning_curves(data, model_cfg, fit_cfg, args.fractions, args.seeds)
+        lines += table_rows(name, rows)
+    print()
+    print(
+        f"test accuracy (segmentation: mIoU) in %, mean ± std over seeds {args.seeds}; "
+        "gain = learner (with variants when present) minus linear reference"
+    )
+    print(markdown_table(HEADER, lines))
+    return 0
