@@ -143,16 +143,20 @@ def test_variants_equal_synthesize_variant_on_the_full_frame(data, whole):
 
 
 def test_observed_images_equal_the_photon_engine_on_the_full_frame(data):
+    """Observed images are the sensor model's photons, reconstructed with censoring."""
     from spl_al.data.seeds import STREAM_OBSERVE, sample_rng
-    from spl_al.photon import reconstruct, simulate_photons
+    from spl_al.photon import ObservationModel, observe_photons, reconstruct
 
+    model = ObservationModel.from_dict(data.meta["observation"])
     for i in range(len(data)):
         clean = data.clean_depth_m[i]
         valid = np.isfinite(clean)
         rng = sample_rng(2, STREAM_OBSERVE, data.uid[i])
         refl = np.where(valid, data.clean_reflectance[i], 0.0)
-        events = simulate_photons(clean, refl, valid, data.msppp[i], data.sbr[i], data.sensor, rng)
-        rec = reconstruct(events, clean.shape, data.sensor)
+        events = observe_photons(
+            clean, refl, valid, data.msppp[i], data.sbr[i], data.sensor, rng, model
+        )
+        rec = reconstruct(events, clean.shape, data.sensor, censor=True)
         np.testing.assert_array_equal(data.depth_m[i], rec.depth_m.astype(np.float32))
         np.testing.assert_array_equal(data.reflectance[i], rec.reflectivity.astype(np.float32))
 

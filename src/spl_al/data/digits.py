@@ -9,7 +9,8 @@ the default learner and the folder path work on data nothing was tuned on. The 1
 
 with the board a plane at ``distance_m`` tilted by a few degrees, the digit upsampled
 bilinearly to ``digit_px`` pixels and placed at a random offset, then seen through
-``spl_al.data.observe_image`` at a random MSPPP level and SBR like every synthetic set.
+``spl_al.data.observe_image`` under the fuller sensor model (``ObservationModel``) at a
+random MSPPP level and SBR, like every synthetic set.
 """
 
 from __future__ import annotations
@@ -21,7 +22,7 @@ import numpy as np
 from spl_al.atomic import atomic_write
 from spl_al.data.observe import DEFAULT_LEVELS, DEFAULT_SBR, observe_image
 from spl_al.data.seeds import STREAM_OBSERVE, STREAM_SCENE, sample_rng
-from spl_al.photon import SensorParams
+from spl_al.photon import ObservationModel, SensorParams
 
 DIGIT_CLASSES = tuple(f"digit{k}" for k in range(10))
 
@@ -104,7 +105,13 @@ def write_digits_folder(
             msppp = level_values[scene_rng.integers(len(level_values))]
             sbr = sbr_values[scene_rng.integers(len(sbr_values))]
             observed, _ = observe_image(
-                clean, albedo, msppp, sbr, sensor, sample_rng(seed, STREAM_OBSERVE, int(i))
+                clean,
+                albedo,
+                msppp,
+                sbr,
+                sensor,
+                sample_rng(seed, STREAM_OBSERVE, int(i)),
+                model=ObservationModel(),
             )
             arrays = {"depth_ssp": np.nan_to_num(observed, nan=0.0), "Z_true": clean}
             atomic_write(root / f"digit{k}_{j:04d}.npz", lambda tmp, a=arrays: _save_npz(tmp, **a))

@@ -23,6 +23,7 @@ from spl_al.data.dataset import LEVELS
 from spl_al.data.parallel import chunk_indices, default_workers, run_chunks
 from spl_al.data.seeds import STREAM_OBSERVE, sample_rng
 from spl_al.photon import SensorParams, reconstruct, simulate_photons
+from spl_al.photon.observation import ObservationModel, observe_photons
 
 DEFAULT_LEVELS: dict[str, float] = {"high": 10.0, "medium": 5.0, "low": 2.0}
 DEFAULT_SBR: tuple[float, ...] = (0.2, 1.0, 5.0)
@@ -146,9 +147,23 @@ def image_through_photons(depth_m, reflectance, valid, msppp, sbr, sensor, rng, 
 
 
 def observe_image(
-    depth_m, reflectance, msppp: float, sbr: float, sensor: SensorParams, rng, method="pooled"
+    depth_m,
+    reflectance,
+    msppp: float,
+    sbr: float,
+    sensor: SensorParams,
+    rng,
+    method="pooled",
+    model: ObservationModel | None = None,
+    range_compensated: bool = False,
 ):
     """One observed image of a clean depth image (NaN = no return).
+
+    ``model`` None: Algorithm 1 (``simulate_photons``, on the returns' bounding box);
+    else the fuller sensor model ``observe_photons`` over the whole frame (background
+    falls on pixels without a return too), reconstructed with background censoring
+    (``reconstruct(..., censor=True)``: what only background reached stays void). ``range_compensated``: the reflectance has
+    no range falloff (``observe_photons``).
 
     Returns (depth (H, W) float32 NaN at voids, reflectivity (H, W) float32 estimated
     signal photons per pixel, 0 at voids). An image without any return stays void.
@@ -160,7 +175,11 @@ def observe_image(
     refl = None if reflectance is None else np.where(valid, reflectance, 0.0)
     if refl is not None and not (refl[valid] > 0).any():
         refl = None  # a scene without any reflectance: uniform, as for external data
-    return image_through_photons(depth, refl, valid, msppp, sbr, sensor, rng, method)
+    if model is None:
+        return image_through_photons(depth, refl, valid, msppp, sbr, sensor, rng, method)
+    events = observe_photons(depth, refl, valid, msppp, sbr, sensor, rng, model, range_compensated)
+    rec = reconstruct(events, events.shape, sensor, method=method, censor=True)
+    return rec.depth_m.astype(np.float32), rec.reflectivity.astype(np.float32)
 
 
 def _observe_chunk(depth, reflectance, msppp, sbr, uid, sensor, seed, method):

@@ -26,8 +26,15 @@ from spl_al.data.observe import (
     observe_image,
 )
 from spl_al.data.parallel import chunk_indices, default_workers, run_chunks
-from spl_al.data.seeds import STREAM_OBSERVE, STREAM_SCENE, STREAM_SPLIT, sample_rng
+from spl_al.data.seeds import (
+    STREAM_INSTANCE,
+    STREAM_OBSERVE,
+    STREAM_SCENE,
+    STREAM_SPLIT,
+    sample_rng,
+)
 from spl_al.photon import METHODS, SensorParams
+from spl_al.photon.observation import ObservationModel
 from spl_al.scenes.objects import CATEGORIES, render_object
 from spl_al.scenes.raycast import ScanGrid
 from spl_al.scenes.street import STREET_CLASSES, default_grid, render_street
@@ -67,9 +74,15 @@ def _check_common(n, seed, method, workers):
     return default_workers() if workers is None else int(workers)
 
 
-def _observe_into(out, k, img, msppp, sbr, sensor, seed, uid, method) -> None:
+def _observation(observation) -> ObservationModel:
+    if isinstance(observation, ObservationModel):
+        return observation
+    return ObservationModel.from_dict(observation)
+
+
+def _observe_into(out, k, img, msppp, sbr, sensor, seed, uid, method, model, compensated):
     """Row k of out["depth"] / out["refl"]: the clean scene ``img`` seen through the
-    photon engine at (msppp, sbr), seeded by the sample's uid."""
+    sensor model at (msppp, sbr), seeded by the sample's uid."""
     out["depth"][k], out["refl"][k] = observe_image(
         img.depth_m,
         img.reflectance,
@@ -78,10 +91,12 @@ def _observe_into(out, k, img, msppp, sbr, sensor, seed, uid, method) -> None:
         sensor,
         sample_rng(seed, STREAM_OBSERVE, uid),
         method,
+        model=None if model.is_algorithm1 else model,
+        range_compensated=compensated,
     )
 
 
-def _object_chunk(uids, categories, msppp, sbr, seed, sensor, method, scene_kw):
+def _object_chunk(uids, categories, msppp, sbr, seed, sensor, method, model, scene_kw):
     n = len(uids)
     rows, cols = scene_kw["image_shape"]
     out = {
@@ -92,15 +107,23 @@ def _object_chunk(uids, categories, msppp, sbr, seed, sensor, method, scene_kw):
         "refl": np.empty((n, rows, cols), np.float32),
         "distance": np.empty(n),
     }
+    options = dict(scene_kw)
+    instances = options.pop("instances_per_class", None)
     for k, uid in enumerate(uids):
-        img = render_object(categories[k], sample_rng(seed, STREAM_SCENE, uid), **scene_kw)
+        rng = sample_rng(seed, STREAM_SCENE, uid)
+        instance_rng = None
+        if instances:
+            # instance i of class c: the same object whichever sample shows it
+            key = CATEGORIES.index(categories[k]) * 1_000_000 + int(rng.integers(instances))
+            instance_rng = sample_rng(seed, STREAM_INSTANCE, key)
+        img = render_object(categories[k], rng, instance_rng=instance_rng, **options)
         out["clean"][k], out["clean_refl"][k], out["mask"][k] = (
             img.depth_m,
             img.reflectance,
             img.object_mask,
         )
         out["distance"][k] = img.distance_m
-        _observe_into(out, k, img, msppp[k], sbr[k], sensor, seed, uid, method)
+        _observe_into(out, k, img, msppp[k], sbr[k], sensor, seed, uid, method, model, False)
     return out
 
 
@@ -150,6 +173,7 @@ def make_classification_dataset(
     fov_deg: float = 30.0,
     max_range_m: float = 140.0,
     workers: int | None = None,
+    observation=None,
     **scene_options,
 ) -> Dataset:
     """Procedural object scenes of ``classes`` and their observed SPL images.
@@ -167,8 +191,14 @@ def make_classification_dataset(
         reconstruct_method: ``spl_al.photon.reconstruct`` method of the observed images.
         classes: subset of ``spl_al.scenes.objects.CATEGORIES``.
         fov_deg, max_range_m, **scene_options: passed to ``render_object``
-            (``fill``, ``elevation_deg``, ``p_ground``, ``p_wall``, ``min_return``).
+            (``fill``, ``elevation_deg``, ``azimuth_deg``, ``p_ground``, ``p_wall``,
+            ``min_return``), and ``instances_per_class``: how many physical objects
+            each class has (None: every sample its own object); each sample shows one
+            of them, drawn at random, in its own pose, view and distance.
         workers: processes (None = all cores; the result does not depend on it).
+        observation: the sensor model of the observed images, an
+            ``spl_al.photon.ObservationModel`` or a dict of its fields (None: the default
+            model, every effect on; ``ObservationModel.algorithm1()``: none).
 
     Returns:
         Dataset with observed depth and reflectivity, clean depth and reflectance,
@@ -189,6 +219,7 @@ def make_classification_dataset(
             f"of {sensor.max_depth_m:.1f} m."
         )
     levels, sbr_values = check_levels(levels), check_sbr_values(sbr_values)
+    model = _observation(observation)
 
     labels = np.repeat(np.arange(len(classes)), n_per_class).astype(np.int64)
     n = labels.size
@@ -205,7 +236,7 @@ def make_classification_dataset(
     }
     cats = np.asarray(classes)[labels]
     args = [
-        (uid[c], cats[c], msppp[c], sbr[c], seed, sensor, reconstruct_method, scene_kw)
+        (uid[c], cats[c], msppp[c], sbr[c], seed, sensor, reconstruct_method, model, scene_kw)
         for c in chunk_indices(n, workers)
     ]
     grid = ScanGrid.square_pixels(shape, fov_deg)
@@ -225,6 +256,7 @@ def make_classification_dataset(
             "levels": levels,
             "sbr_values": sbr_values,
             "reconstruct_method": reconstruct_method,
+            "observation": model.to_dict(),
             "fov_deg": float(fov_deg),
             "max_range_m": float(max_range_m),
             "scene_options": {
@@ -234,7 +266,7 @@ def make_classification_dataset(
     )
 
 
-def _street_chunk(uids, msppp, sbr, seed, sensor, method, grid, max_range_m):
+def _street_chunk(uids, msppp, sbr, seed, sensor, method, model, grid, max_range_m):
     n = len(uids)
     rows, cols = grid.shape
     out = {
@@ -251,7 +283,7 @@ def _street_chunk(uids, msppp, sbr, seed, sensor, method, grid, max_range_m):
             img.reflectance,
             img.labels,
         )
-        _observe_into(out, k, img, msppp[k], sbr[k], sensor, seed, uid, method)
+        _observe_into(out, k, img, msppp[k], sbr[k], sensor, seed, uid, method, model, True)
     return out
 
 
@@ -268,6 +300,7 @@ def make_segmentation_dataset(
     azimuth_deg=(-45.0, 45.0),
     max_range_m: float = 120.0,
     workers: int | None = None,
+    observation=None,
 ) -> Dataset:
     """Procedural street scenes as range images with per-pixel labels, and their
     observed SPL images.
@@ -278,7 +311,8 @@ def make_segmentation_dataset(
         elevation_deg, azimuth_deg: (first, last) row / column centre angles.
         max_range_m: nothing beyond returns (labels there are 255).
         sensor: default ``SensorParams.street()`` (1024 bins of 1 ns, 153 m).
-        others: as ``make_classification_dataset``.
+        others: as ``make_classification_dataset`` (the street scenes' reflectance is
+            range-compensated, so the observation model applies the range falloff).
 
     Returns:
         Dataset with classes ``STREET_CLASSES``, (N, H, W) uint8 labels (255 = no
@@ -293,6 +327,7 @@ def make_segmentation_dataset(
             f"of {sensor.max_depth_m:.1f} m."
         )
     levels, sbr_values = check_levels(levels), check_sbr_values(sbr_values)
+    model = _observation(observation)
     grid = (
         ScanGrid(shape, tuple(elevation_deg), tuple(azimuth_deg))
         if elevation_deg
@@ -306,7 +341,7 @@ def make_segmentation_dataset(
         np.zeros(n, np.int64), split, levels, sbr_values, split_rng
     )
     args = [
-        (uid[c], msppp[c], sbr[c], seed, sensor, reconstruct_method, grid, max_range_m)
+        (uid[c], msppp[c], sbr[c], seed, sensor, reconstruct_method, model, grid, max_range_m)
         for c in chunk_indices(n, workers)
     ]
     parts = run_chunks(_street_chunk, args, workers)
@@ -325,6 +360,7 @@ def make_segmentation_dataset(
             "levels": levels,
             "sbr_values": sbr_values,
             "reconstruct_method": reconstruct_method,
+            "observation": model.to_dict(),
             "max_range_m": float(max_range_m),
         },
     )

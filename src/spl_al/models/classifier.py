@@ -138,6 +138,12 @@ class SmallCNN(_PooledClassifier):
         stages: number of stages (resolution halves at each).
         convs_per_stage: convolutions per stage (>= 1).
         in_channels: input channels (2: depth and validity).
+        input_pool: average the input over input_pool x input_pool blocks first (1:
+            off). Photon noise is per pixel; averaging it before the first convolution
+            keeps the network from fitting it when labels are few, and cuts the cost
+            by input_pool^2.
+        first_stride: stride of the first convolution (2 halves the resolution at
+            once; 1 keeps it for the first stage).
     """
 
     def __init__(
@@ -147,6 +153,9 @@ class SmallCNN(_PooledClassifier):
         stages: int = 4,
         convs_per_stage: int = 1,
         in_channels: int = 2,
+        input_pool: int = 1,
+        first_stride: int = 2,
+        dropout: float = 0.0,
     ) -> None:
         super().__init__()
         if int(width) < 1 or int(stages) < 1 or int(convs_per_stage) < 1:
@@ -155,15 +164,21 @@ class SmallCNN(_PooledClassifier):
                 f"{convs_per_stage}."
             )
         self.n_classes = int(n_classes)
-        layers: list[nn.Module] = []
+        layers: list[nn.Module] = [nn.AvgPool2d(input_pool)] if input_pool > 1 else []
         c_in = in_channels
         for k in range(stages):
             c_out = width * 2**k
             for j in range(convs_per_stage):
-                layers += [*_conv_bn(c_in, c_out, 3, 2 if j == 0 else 1), nn.ReLU(inplace=True)]
+                stride = (first_stride if k == 0 else 2) if j == 0 else 1
+                layers += [*_conv_bn(c_in, c_out, 3, stride), nn.ReLU(inplace=True)]
                 c_in = c_out
         self.body = nn.Sequential(*layers)
+        self.dropout = nn.Dropout(dropout) if dropout > 0 else nn.Identity()
         self._add_head(c_in)
 
     def trunk(self, x: torch.Tensor) -> torch.Tensor:
         return self.body(x)
+
+    def forward(self, x: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
+        features = self.trunk(x).mean(dim=(2, 3))
+        return self.fc(self.dropout(features)), features

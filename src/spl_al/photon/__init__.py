@@ -12,6 +12,7 @@ Public API:
 
 from spl_al.photon.events import PhotonEvents, histogram
 from spl_al.photon.io import load_mat
+from spl_al.photon.observation import ObservationModel, observe_photons
 from spl_al.photon.reconstruct import METHODS, Reconstruction, reconstruct
 from spl_al.photon.sensor import SPEED_OF_LIGHT_M_PER_S, SensorParams
 from spl_al.photon.simulate import simulate_photons
@@ -20,11 +21,13 @@ from spl_al.photon.variant import synthesize_variant
 __all__ = [
     "METHODS",
     "SPEED_OF_LIGHT_M_PER_S",
+    "ObservationModel",
     "PhotonEvents",
     "Reconstruction",
     "SensorParams",
     "histogram",
     "load_mat",
+    "observe_photons",
     "reconstruct",
     "simulate_photons",
     "synthesize_variant",

@@ -257,6 +257,22 @@ def _pooled_choice(photons, like, best_bin, best_score, shape, margin_photons):
     return np.where(keep_own, best_bin, choice.ravel())
 
 
+def _window_support(photons: _SortedPhotons, half_window: int, centre: np.ndarray, shape):
+    """Photons of each pixel's 3x3 window within +-half_window bins of the pixel's
+    integer ``centre`` (n_pixels,; < 0 = none, support 0)."""
+    rows, cols = shape
+    c = centre.reshape(shape)
+    support = np.zeros(shape)
+    for dy, dx in _OFFSETS_3:
+        # the photons of pixel p + o counted at p's centre: shift p's centre onto them
+        at = _shift(c, -dy, -dx, -1).ravel()
+        offset = photons.bin - np.where(at >= 0, at, _NO_CENTRE).astype(np.int32)[photons.pixel]
+        near = (offset + half_window).view(np.uint32) <= 2 * half_window
+        counted = np.bincount(photons.pixel[near], minlength=rows * cols).reshape(shape)
+        support += _shift(counted, dy, dx, 0)
+    return np.where(c >= 0, support, 0.0)
+
+
 def _median3(image: np.ndarray) -> np.ndarray:
     """3x3 median over finite values (NaN = void is ignored; all-void windows give NaN)."""
     stack = np.sort(np.stack([_shift(image, dy, dx, np.nan) for dy, dx in _OFFSETS_3]), axis=0)
@@ -273,7 +289,11 @@ def _mean3(image: np.ndarray, weight: np.ndarray) -> np.ndarray:
 
 
 def reconstruct(
-    events: PhotonEvents, shape: tuple[int, int], sensor: SensorParams, method: str = "pooled"
+    events: PhotonEvents,
+    shape: tuple[int, int],
+    sensor: SensorParams,
+    method: str = "pooled",
+    censor: bool = False,
 ) -> Reconstruction:
     """Recover depth, reflectivity and background per pixel from photon events.
 
@@ -286,6 +306,12 @@ def reconstruct(
         shape: (rows, cols) of the frame.
         sensor: the timing the events were recorded with.
         method: ``"pooled"`` (default) or ``"lmf"``.
+        censor: make a pixel a void when the photons of its 3x3 window near its depth
+            are no more than background coincidences reach in 5% of frames
+            (``_significant_cluster`` with the window's background). Pixels without a
+            return (sky, beyond range) that only background photons reached then stay
+            voids instead of taking a random depth: the ML counterpart of the background
+            classification of learned denoisers such as SSPI.
 
     Returns:
         Reconstruction(depth_m, reflectivity, background, counts, valid), each (rows, cols).
@@ -329,6 +355,15 @@ def reconstruct(
     if method == "pooled":
         weak = has.reshape(rows, cols) & (n_in < 2)
         depth = np.where(weak, _median3(depth), depth)
+    if censor:
+        window = 2 * like.half_window + 1
+        local_counts = _mean3(counts.reshape(rows, cols).astype(np.float64), np.ones((rows, cols)))
+        background_9 = 9 * background_fraction * local_counts.ravel() * window / sensor.n_bins
+        needed = _significant_cluster(background_9, sensor.n_bins / window).reshape(rows, cols)
+        finite = np.isfinite(depth)
+        at = np.where(finite, sensor.depth_to_bin(np.where(finite, depth, 0.0)), -1)
+        support = _window_support(photons, like.half_window, at.astype(np.int64).ravel(), shape)
+        depth = np.where(support >= needed, depth, np.nan)
 
     # Signal and background split per pixel: photons outside the peak window are
     # background, spread uniformly over the T bins.

@@ -725,6 +725,8 @@ def render_object(
     p_ground: float = 0.75,
     p_wall: float = 0.3,
     min_return: float = 0.05,
+    instance_rng: np.random.Generator | None = None,
+    azimuth_deg: float | None = None,
 ) -> ObjectImage:
     """Render one scene of ``category`` seen by a scanning SPL.
 
@@ -739,16 +741,25 @@ def render_object(
         p_ground, p_wall: probabilities of a ground plane and of a wall behind the object.
         min_return: detection floor: pixels whose return albedo * |cos| * (d0 / d)^2 is
             below it give no return (far ground at grazing incidence, dark glass).
+        instance_rng: when given, the object's shape (and its resting orientation)
+            come from it instead of ``rng``: samples sharing an instance_rng seed show
+            one physical object, as a capture campaign films a few objects many times.
+        azimuth_deg: with ``instance_rng``, the view azimuth varies by +-azimuth_deg
+            around the instance's resting orientation (None: any azimuth, or +-60
+            degrees of broadside for bikes, ships and roadblocks).
     """
     if category not in BUILDERS:
         raise ValueError(f"category must be one of {CATEGORIES}, got {category!r}.")
-    obj = BUILDERS[category](rng)
+    obj = BUILDERS[category](rng if instance_rng is None else instance_rng)
     obj.label = np.full(len(obj.faces), OBJECT_LABEL, dtype=np.int64)
     grid = ScanGrid.square_pixels(image_shape, fov_deg)
     lo, hi = obj.bounds()
     centre = (lo + hi) / 2
     size = float(np.linalg.norm(hi - lo))
-    if category in _SIDE_VIEW:
+    if instance_rng is not None and azimuth_deg is not None:
+        rest = -np.pi / 2 if category in _SIDE_VIEW else _u(instance_rng, 0, 2 * np.pi)
+        view_az = rest + np.deg2rad(_u(rng, -azimuth_deg, azimuth_deg))
+    elif category in _SIDE_VIEW:
         view_az = -np.pi / 2 + np.deg2rad(_u(rng, -60, 60)) + np.pi * rng.integers(0, 2)
     else:
         view_az = _u(rng, 0, 2 * np.pi)
