@@ -162,8 +162,8 @@ def observe_image(
     ``model`` None: Algorithm 1 (``simulate_photons``, on the returns' bounding box);
     else the fuller sensor model ``observe_photons`` over the whole frame (background
     falls on pixels without a return too), reconstructed with background censoring
-    (``reconstruct(..., censor=True)``: what only background reached stays void). ``range_compensated``: the reflectance has
-    no range falloff (``observe_photons``).
+    (``reconstruct(..., censor=True)``: what only background reached stays void).
+    ``range_compensated``: the reflectance has no range falloff (``observe_photons``).
 
     Returns (depth (H, W) float32 NaN at voids, reflectivity (H, W) float32 estimated
     signal photons per pixel, 0 at voids). An image without any return stays void.

@@ -32,12 +32,7 @@ class TrainConfig:
             width (each image its own integer shift; pixels shifted in are voids,
             masks shift alike); 0 disables. The cheapest strong prior for few labels:
             a class does not change when the object moves in the frame.
-        from_scratch: re-initialise the weights from the seed before training (False:
-            start from the model's weights, e.g. pretrained ones).
-        trunk_lr_scale: learning rate of every layer but the classifier (``fc``) as a
-            fraction of ``lr`` (fine-tuning pretrained features gently).
-        freeze_norm: keep batch-norm statistics as they are (a few labeled images
-            would otherwise overwrite the pool statistics of pretrained weights).
+        from_scratch: re-initialise the weights from the seed before training.
         channels_last: NHWC memory layout (about 2x faster convolutions on CPU).
         log_every: write a progress line every this many epochs (0: none).
         num_threads: ``torch.set_num_threads`` for training and prediction
@@ -56,8 +51,6 @@ class TrainConfig:
     cosine: bool = True
     hflip: bool = True
     shift: float = 0.0
-    trunk_lr_scale: float = 1.0
-    freeze_norm: bool = False
     from_scratch: bool = True
     channels_last: bool = True
     log_every: int = 1
@@ -86,11 +79,11 @@ class TrainConfig:
             raise ValueError(f"TrainConfig.shift must be a number in [0, 0.5), got {self.shift!r}.")
         if not 0 <= self.shift < 0.5:
             raise ValueError(f"TrainConfig.shift must be a number in [0, 0.5), got {self.shift!r}.")
-        for name in ("lr", "momentum", "weight_decay", "trunk_lr_scale"):
+        for name in ("lr", "momentum", "weight_decay"):
             value = getattr(self, name)
             if isinstance(value, bool) or not isinstance(value, int | float) or not value >= 0:
                 raise ValueError(f"TrainConfig.{name} must be a number >= 0, got {value!r}.")
-        for name in ("nesterov", "cosine", "hflip", "from_scratch", "channels_last", "freeze_norm"):
+        for name in ("nesterov", "cosine", "hflip", "from_scratch", "channels_last"):
             if not isinstance(getattr(self, name), bool):
                 raise ValueError(
                     f"TrainConfig.{name} must be true or false, got {getattr(self, name)!r}."

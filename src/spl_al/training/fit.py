@@ -192,11 +192,8 @@ def train(
     if cfg.channels_last:
         model.to(memory_format=torch.channels_last)
     gen = torch.Generator().manual_seed(int(seed))
-    head = [p for n, p in model.named_parameters() if n.startswith("fc.")]
-    trunk = [p for n, p in model.named_parameters() if not n.startswith("fc.")]
-    groups = [{"params": trunk, "scale": cfg.trunk_lr_scale}, {"params": head, "scale": 1.0}]
     opt = torch.optim.SGD(
-        [g for g in groups if g["params"]],
+        model.parameters(),
         lr=cfg.lr,
         momentum=cfg.momentum,
         nesterov=cfg.nesterov and cfg.momentum > 0,
@@ -214,10 +211,6 @@ def train(
         f"batch {batch}, device {dev}, seed {seed}"
     )
     model.train()
-    if cfg.freeze_norm:
-        for m in model.modules():
-            if isinstance(m, nn.modules.batchnorm._BatchNorm):
-                m.eval()
     step = 0
     start = time.perf_counter()
     try:
@@ -235,7 +228,7 @@ def train(
                         0.5 * (1 + math.cos(math.pi * step / total)) if cfg.cosine else 1
                     )
                     for group in opt.param_groups:
-                        group["lr"] = lr * group["scale"]
+                        group["lr"] = lr
                     idx = perm[b * batch : (b + 1) * batch]
                     flip = (torch.rand(len(idx), generator=gen) < 0.5) if cfg.hflip else None
                     idx = idx.to(dev)
