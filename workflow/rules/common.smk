@@ -1,6 +1,7 @@
 # Shared names and input functions; rules live in the other .smk files.
 from pathlib import Path
 
+from spl_al.config import real_captures_dir
 from spl_al.experiment.plan import (
     check_plan,
     dataset_method,
@@ -25,16 +26,17 @@ wildcard_constraints:
 
 try:
     check_plan(config)
+    # photon.real_captures, else $SPL_AL_REAL_CAPTURES, else None (no pictures)
+    REAL_CAPTURES = real_captures_dir(config)
 except ValueError as err:
     sys.exit(f"Error: {err}")
 
 
 def real_capture_names():
-    """Names of the real .mat captures in config photon.real_captures (none if absent)."""
-    folder = Path(config["photon"].get("real_captures", ""))
-    if not folder.is_dir():
+    """Names of the real .mat captures to picture (none without a captures folder)."""
+    if REAL_CAPTURES is None:
         return []
-    return sorted(p.stem for p in folder.glob("*.mat"))
+    return sorted(p.stem for p in REAL_CAPTURES.glob("*.mat"))
 
 
 def photon_pictures():

@@ -92,3 +92,22 @@ rule summary:
         runtime=10,
     script:
         "../scripts/summary.py"
+
+
+rule run_config:
+    output:
+        f"{RESULTS}/config.yaml",
+    log:
+        f"{RESULTS}/logs/run_config.log",
+    benchmark:
+        f"{RESULTS}/benchmarks/run_config.tsv"
+    conda:
+        "../envs/spl-al.yaml"
+    threads: 1
+    resources:
+        mem_mb=500,
+        runtime=5,
+    params:
+        config=config,
+    script:
+        "../scripts/run_config.py"
