@@ -26,6 +26,7 @@ include: "workflow/rules/common.smk"
 include: "workflow/rules/photon.smk"
 include: "workflow/rules/data.smk"
 include: "workflow/rules/al.smk"
+include: "workflow/rules/human.smk"
 include: "workflow/rules/report.smk"
 
 
