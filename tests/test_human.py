@@ -190,3 +190,14 @@ def test_unlabeled_folder_is_a_pool_with_a_labeled_test_split(tmp_path):
     )
     with pytest.raises(ValueError, match=r"bad.csv line 2: file 'frame_0009.npz' is not in"):
         load_unlabeled_folder(frames, CLASSES, seed_labels=bad)
+
+
+def test_segmentation_batch_proposes_mask_paths_and_lists_class_colours(tmp_path):
+    out = write_batch(dataset("segmentation"), [1], tmp_path / "to_label", "lab/round1.csv")
+    with open(out / "to_label.csv") as f:
+        assert list(csv.DictReader(f)) == [
+            {"sample": "101", "file": "", "mask": "round1_masks/sample101.png"}
+        ]
+    lines = (out / "classes.csv").read_text().splitlines()
+    assert lines[0] == "index,name,colour" and lines[1].startswith("0,car,#")
+    assert lines[-1] == "255,(no label),#000000"

@@ -227,7 +227,7 @@ def train_round(
     """
     import torch
 
-    from spl_al.data import Dataset
+    from spl_al.data import LEVELS, Dataset
     from spl_al.training import TrainConfig, evaluate, train
 
     _set_threads(threads)
@@ -290,7 +290,7 @@ def train_round(
         "per_level": {
             level: float(v[key])
             for level, v in metrics.get("per_level", {}).items()
-            if v[key] is not None
+            if v[key] is not None and level in LEVELS  # not "unknown" (external files)
         },
         "synthetic_standin": bool(dataset.meta.get("synthetic_standin", False)),
         "train_images": int(images.shape[0]),
