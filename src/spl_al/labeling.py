@@ -161,15 +161,14 @@ def _batch_sheet(dataset: Dataset, samples, path: Path) -> None:
 # ---------------------------------------------------------------- label files
 
 
-def read_label_file(path, dataset: Dataset, pool_indices, root=None) -> np.ndarray:
+def read_label_file(path, dataset: Dataset, pool_indices) -> np.ndarray:
     """The labels a filled label file gives the training-pool groups ``pool_indices``.
 
     Returns them in the order of ``pool_indices``: (n,) int64 class indices or
     (n, H, W) uint8 masks. Every problem (unreadable file, missing column, a sample
     that is unknown, not in the batch, listed twice or missing, an unknown class, a
     mask that is missing, of the wrong shape or with values outside the classes) is a
-    ValueError naming the file, its line and the value. ``root`` resolves the ``file``
-    column (default: the dataset's folder).
+    ValueError naming the file, its line and the value.
     """
     path = Path(path)
     rows, header = _read_rows(path)
