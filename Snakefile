@@ -4,18 +4,18 @@ import sys
 
 from snakemake.utils import min_version
 
-from spl_al.config import check_config
+from spl_al.config import check_config, drop_removed
 
 min_version("9.0")
 
 
-# --configfile FILE replaces the embedded default instead of being merged into it,
-# so config/ci.yaml and config/paper.yaml are complete on their own.
-if not workflow.overwrite_configfiles:
+# config/config.yaml holds every default; --configfile FILE and --config KEY=VALUE
+# are merged on top of it by Snakemake (nested keys one by one, lists replaced whole).
+# A key set to null in an override is removed (e.g. `datasets: {synth_cls: null}`).
+configfile: "config/config.yaml"
 
-    configfile: "config/config.yaml"
 
-
+drop_removed(config)
 try:
     check_config(config, "config/schema.yaml")
 except ValueError as err:
@@ -26,11 +26,13 @@ include: "workflow/rules/common.smk"
 include: "workflow/rules/photon.smk"
 include: "workflow/rules/data.smk"
 include: "workflow/rules/al.smk"
+include: "workflow/rules/human.smk"
 include: "workflow/rules/report.smk"
 
 
 rule all:
     default_target: True
     input:
+        f"{RESULTS}/config.yaml",
         photon_pictures(),
         [dataset_outputs(d) for d in DATASETS],

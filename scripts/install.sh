@@ -1,12 +1,32 @@
 #!/usr/bin/env bash
-# Installs spl-al and its dev tools into the current Python.
-# A torch that is already installed (for example a CUDA build) is kept; otherwise
-# the CPU build 2.13.0 is installed, which on these machines comes from a local wheel
-# instead of pulling several GB of CUDA packages.
+# Installs spl-al and its dev tools into the current Python ($PYTHON, default python3).
+#
+# torch, which is the only heavy dependency, is handled first:
+# - a torch that is already installed (for example a CUDA build) is kept;
+# - on a machine with an NVIDIA driver (nvidia-smi works), torch==2.13.0 comes from
+#   the normal package index, which on Linux x86_64 is the CUDA build;
+# - otherwise (a CPU-only laptop) the CPU build torch==2.13.0 comes from PyTorch's
+#   CPU index (about 200 MB instead of several GB of CUDA libraries); when that index
+#   cannot be reached and pip finds no copy in its configured mirrors, the same pin
+#   is installed from the normal package index (on Linux x86_64 that is the CUDA
+#   build, several GB, which also runs on CPU).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 PY=${PYTHON:-python3}
-if ! "$PY" -c "import torch" >/dev/null 2>&1; then
-  "$PY" -m pip install --quiet torch==2.13.0
+TORCH=torch==2.13.0
+CPU_INDEX=https://download.pytorch.org/whl/cpu
+
+if "$PY" -c "import torch" >/dev/null 2>&1; then
+  echo "install.sh: keeping the installed torch $("$PY" -c 'import torch; print(torch.__version__)')"
+elif command -v nvidia-smi >/dev/null 2>&1 && nvidia-smi >/dev/null 2>&1; then
+  echo "install.sh: NVIDIA GPU found, installing $TORCH from the package index (CUDA build)"
+  "$PY" -m pip install --quiet "$TORCH"
+elif "$PY" -m pip install --quiet --retries 1 --timeout 15 --index-url "$CPU_INDEX" "$TORCH"; then
+  # pip also looks in the find-links / extra indexes of its own config (a local mirror)
+  echo "install.sh: installed $TORCH for CPU (from $CPU_INDEX or pip's configured mirror)"
+else
+  echo "install.sh: $CPU_INDEX unreachable, installing $TORCH from the package index instead"
+  "$PY" -m pip install --quiet "$TORCH"
 fi
 "$PY" -m pip install --quiet -e ".[dev]"
+"$PY" -c "import torch; print(f'install.sh: torch {torch.__version__}, CUDA available: {torch.cuda.is_available()}')"

@@ -1,4 +1,4 @@
-"""Statistics of the photon simulator against METHOD.md section 2 (Algorithm 1)."""
+"""Statistics of the photon simulator against docs/method.md section 2 (Algorithm 1)."""
 
 from __future__ import annotations
 

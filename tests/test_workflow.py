@@ -2,12 +2,16 @@
 
 from __future__ import annotations
 
+import os
 import shutil
 import subprocess
 import sys
 from pathlib import Path
 
 import pytest
+import yaml
+
+from spl_al.config import drop_removed
 
 ROOT = Path(__file__).resolve().parents[1]
 pytestmark = pytest.mark.skipif(shutil.which("snakemake") is None, reason="snakemake not installed")
@@ -28,3 +32,50 @@ def test_unknown_config_key_fails_before_any_job_with_the_key_named():
     run = snakemake("-n", "--cores", "1", "--config", "bogus_key=1")
     assert run.returncode != 0
     assert "bogus_key" in run.stderr
+
+
+def effective_config(tmp_path, *args) -> dict:
+    """The configuration Snakemake really ran with: its run_config job writes it."""
+    results = tmp_path / "results"
+    run = snakemake(str(results / "config.yaml"), "-j1", *args, "--config", f"results={results}")
+    assert run.returncode == 0, run.stderr[-3000:]
+    return yaml.safe_load((results / "config.yaml").read_text())
+
+
+def test_override_file_changes_only_the_values_it_names(tmp_path):
+    override = tmp_path / "override.yaml"
+    override.write_text("device: cpu\ndatasets:\n  real_cls: {al: {batch: 7}}\n")
+    got = effective_config(tmp_path, "--configfile", str(override))
+
+    expected = drop_removed(yaml.safe_load((ROOT / "config" / "config.yaml").read_text()))
+    expected["device"] = "cpu"
+    expected["datasets"]["real_cls"]["al"]["batch"] = 7
+    expected["results"] = str(tmp_path / "results")
+    assert got == expected
+
+
+def test_ci_config_keeps_the_defaults_it_does_not_name_and_drops_synth_cls(tmp_path):
+    got = effective_config(tmp_path, "--configfile", "config/ci.yaml")
+    default = yaml.safe_load((ROOT / "config" / "config.yaml").read_text())
+    assert sorted(got["datasets"]) == ["real_cls", "street_seg"]
+    assert got["datasets"]["real_cls"]["al"] == {"initial": 11, "batch": 6, "ratio_of": "all"}
+    assert got["methods"]["duis"] == {
+        "strategy": "duis",
+        "params": {"n_cand": 12, "alpha": 0.5},
+        "use_variants": True,
+    }
+    assert got["datasets"]["street_seg"]["task"] == "segmentation"
+    assert got["methods"]["syn_badge"] == default["methods"]["syn_badge"]
+
+
+def test_a_missing_real_captures_folder_is_one_line_naming_the_variable(tmp_path):
+    env = {**os.environ, "SPL_AL_REAL_CAPTURES": str(tmp_path / "nowhere")}
+    run = subprocess.run(
+        [sys.executable, "-m", "snakemake", "-n", "--cores", "1"],
+        cwd=ROOT,
+        capture_output=True,
+        text=True,
+        env=env,
+    )
+    assert run.returncode != 0
+    assert "environment variable SPL_AL_REAL_CAPTURES names" in run.stderr

@@ -1,8 +1,34 @@
-"""Validation of a workflow configuration against its JSON schema, with one-line errors."""
+"""The workflow configuration: validation with one-line errors, removed keys, and the
+folders that come from the environment.
+
+Snakemake builds the configuration: ``config/config.yaml`` (the Snakefile's
+``configfile:``) is the base, then every ``--configfile`` and ``--config`` is merged
+on top of it, nested mappings key by key (lists and values are replaced whole).
+"""
 
 from __future__ import annotations
 
+import os
 from pathlib import Path
+
+# Environment variables naming folders that cannot ship with the repository.
+REAL_CAPTURES_ENV = "SPL_AL_REAL_CAPTURES"  # real .mat photon captures (ugv45m frames)
+SSPI_WEIGHTS_ENV = "SPL_AL_SSPI_WEIGHTS"  # SSPI checkpoints
+
+
+def drop_removed(config: dict) -> dict:
+    """Delete every key whose value is null, at any depth, in place; return ``config``.
+
+    A merge can only add or change keys, so an override file removes one by setting
+    it to null: ``datasets: {synth_cls: null}`` drops that dataset, ``methods:
+    {syn_badge: null}`` that method. (Keys whose null meant "unset" read the same.)
+    """
+    for key in [k for k, v in config.items() if v is None]:
+        del config[key]
+    for value in config.values():
+        if isinstance(value, dict):
+            drop_removed(value)
+    return config
 
 
 def check_config(config: dict, schema_path) -> None:
@@ -23,3 +49,32 @@ def check_config(config: dict, schema_path) -> None:
     err = errors[0]
     where = ".".join(str(p) for p in err.path) or "(top level)"
     raise ValueError(f"config key {where!r}: {err.message} (checked against {schema_path}).")
+
+
+def real_captures_dir(config: dict, environ=os.environ) -> Path | None:
+    """The folder of real .mat captures to picture, or None when none is given.
+
+    ``photon.real_captures`` in the config wins; without it the environment variable
+    ``SPL_AL_REAL_CAPTURES`` is used. A folder that is named but missing is an error.
+    """
+    value = (config.get("photon") or {}).get("real_captures")
+    where = "config key 'photon.real_captures'"
+    if not value:
+        value = environ.get(REAL_CAPTURES_ENV)
+        where = f"environment variable {REAL_CAPTURES_ENV}"
+    if not value:
+        return None
+    folder = Path(value)
+    if not folder.is_dir():
+        raise ValueError(f"{where} names {folder}, which is not a folder.")
+    return folder
+
+
+def write_config(config: dict, path) -> Path:
+    """Write the effective configuration of a run as YAML (atomically, keys sorted)."""
+    import yaml
+
+    from spl_al.atomic import atomic_write_text
+
+    text = "# The configuration this run used (config/config.yaml + overrides).\n"
+    return atomic_write_text(path, text + yaml.safe_dump(config, sort_keys=True))

@@ -13,6 +13,8 @@ rule initial_set:
         f"{RESULTS}/logs/{{dataset}}/initial_seed{{seed}}.log",
     benchmark:
         f"{RESULTS}/benchmarks/{{dataset}}/initial_seed{{seed}}.tsv"
+    wildcard_constraints:
+        dataset=one_of(SIMULATED),
     conda:
         "../envs/spl-al.yaml"
     threads: 1
@@ -29,6 +31,7 @@ rule train:
     input:
         data=f"{RESULTS}/{{dataset}}/data/dataset.npz",
         labeled=labeled_input,
+        labels=given_labels,
     output:
         model=f"{RUN}/round{{round}}/model.pt",
         metrics=f"{RUN}/round{{round}}/metrics.json",
@@ -65,6 +68,7 @@ rule query:
         f"{RESULTS}/benchmarks/{{dataset}}/{{method}}/seed{{seed}}/round{{round}}_query.tsv"
     wildcard_constraints:
         round=r"[1-9]\d*",
+        dataset=one_of(SIMULATED),
     group:
         query_group
     conda:

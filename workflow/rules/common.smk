@@ -3,6 +3,7 @@ from pathlib import Path
 
 from snakemake.logging import logger
 
+from spl_al.config import real_captures_dir
 from spl_al.data.external import folder_has_levels
 from spl_al.experiment.plan import (
     check_plan,
@@ -16,6 +17,14 @@ RESULTS = config["results"]
 DATASETS = list(config["datasets"])
 METHODS = method_specs(config)
 RUN = f"{RESULTS}/{{dataset}}/{{method}}/seed{{seed}}"
+# Datasets whose labels come from a person (oracle: human) and from the data.
+HUMAN = [d for d in DATASETS if config["datasets"][d].get("oracle") == "human"]
+SIMULATED = [d for d in DATASETS if d not in HUMAN]
+
+
+def one_of(names):
+    """A wildcard constraint matching exactly ``names`` (nothing when it is empty)."""
+    return "|".join(names) or "(?!)"
 
 
 wildcard_constraints:
@@ -28,16 +37,17 @@ wildcard_constraints:
 
 try:
     check_plan(config)
+    # photon.real_captures, else $SPL_AL_REAL_CAPTURES, else None (no pictures)
+    REAL_CAPTURES = real_captures_dir(config)
 except ValueError as err:
     sys.exit(f"Error: {err}")
 
 
 def real_capture_names():
-    """Names of the real .mat captures in config photon.real_captures (none if absent)."""
-    folder = Path(config["photon"].get("real_captures", ""))
-    if not folder.is_dir():
+    """Names of the real .mat captures to picture (none without a captures folder)."""
+    if REAL_CAPTURES is None:
         return []
-    return sorted(p.stem for p in folder.glob("*.mat"))
+    return sorted(p.stem for p in REAL_CAPTURES.glob("*.mat"))
 
 
 def photon_pictures():
@@ -70,20 +80,33 @@ def metrics_files(dataset):
     ]
 
 
-def labeled_input(wildcards):
-    """Round 0 starts from the seed's shared initial set; round r from round r-1's query."""
-    r = int(wildcards.round)
-    if r == 0:
+def round_file(wildcards, r, name):
+    return f"{RESULTS}/{wildcards.dataset}/{wildcards.method}/seed{wildcards.seed}/round{r}/{name}"
+
+
+def labeled_in_round(wildcards, r):
+    """Round 0 starts from the seed's shared initial set; round r from round r-1's
+    query. With a human oracle every round's set, round 0's too, is the one whose
+    labels were given (accept_labels)."""
+    if r == 0 and wildcards.dataset not in HUMAN:
         return f"{RESULTS}/{wildcards.dataset}/initial/seed{wildcards.seed}.json"
-    return f"{RESULTS}/{wildcards.dataset}/{wildcards.method}/seed{wildcards.seed}/round{r}/labeled.json"
+    return round_file(wildcards, r, "labeled.json")
+
+
+def labeled_input(wildcards):
+    return labeled_in_round(wildcards, int(wildcards.round))
 
 
 def previous_labeled(wildcards):
     """The labeled set round r - 1 trained on (query of round r adds to it)."""
-    r = int(wildcards.round) - 1
-    if r == 0:
-        return f"{RESULTS}/{wildcards.dataset}/initial/seed{wildcards.seed}.json"
-    return f"{RESULTS}/{wildcards.dataset}/{wildcards.method}/seed{wildcards.seed}/round{r}/labeled.json"
+    return labeled_in_round(wildcards, int(wildcards.round) - 1)
+
+
+def given_labels(wildcards):
+    """Labels a person gave for round r's training (none with a simulated oracle)."""
+    if wildcards.dataset not in HUMAN:
+        return []
+    return round_file(wildcards, int(wildcards.round), "labels.npz")
 
 
 def previous_round(wildcards, name):
@@ -117,7 +140,8 @@ def has_levels(dataset):
     """Whether the dataset's images carry MSPPP levels: synthetic data and stand-ins do,
     a folder only when its files hold them or ``levels_file`` assigns them."""
     entry = config["datasets"][dataset]
-    if entry["source"] != "folder" or not entry.get("path") or entry.get("levels_file"):
+    standin = entry["source"] == "folder" and not entry.get("path")
+    if entry["source"] == "synthetic" or standin or entry.get("levels_file"):
         return True
     return folder_has_levels(entry["path"], entry.get("depth_key", "depth_ssp"))
 
@@ -160,3 +184,49 @@ def dataset_tables(dataset):
     exps = config["datasets"][dataset].get("experiments", {})
     kinds = ("budget", "levels", "ablation", "sensitivity")
     return [t for t in kinds if t in exps and (t != "levels" or has_levels(dataset))]
+
+
+# ---- human oracle (workflow/rules/human.smk)
+
+
+def labels_dir(dataset):
+    return config["datasets"][dataset].get("labels_dir") or f"labels/{dataset}"
+
+
+def initial_labels_file(dataset, seed):
+    """Round 0's labels: seed_labels when it lists training samples, else a file per seed."""
+    entry = config["datasets"][dataset]
+    return entry.get("seed_labels") or f"{labels_dir(dataset)}/initial/seed{seed}.csv"
+
+
+def labels_file(wildcards):
+    """Where the person saves the filled to_label.csv of a round."""
+    r = int(wildcards.round)
+    if r == 0:
+        return initial_labels_file(wildcards.dataset, wildcards.seed)
+    return f"{labels_dir(wildcards.dataset)}/{wildcards.method}/seed{wildcards.seed}/round{r}.csv"
+
+
+def labels_file_if_given(wildcards):
+    """The label file as an input once it exists (so editing it reruns what follows);
+    before that accept_labels runs without it and stops with a message naming it."""
+    path = labels_file(wildcards)
+    return [path] if Path(path).is_file() else []
+
+
+def labeling_request(wildcards):
+    """What round r asks labels for: round 0's set or round r's query."""
+    if int(wildcards.round) == 0:
+        return f"{RESULTS}/{wildcards.dataset}/initial/seed{wildcards.seed}.json"
+    return round_file(wildcards, wildcards.round, "query.json")
+
+
+def labeling_batch(wildcards):
+    if int(wildcards.round) == 0:
+        return f"{RESULTS}/{wildcards.dataset}/initial/seed{wildcards.seed}/to_label"
+    return round_file(wildcards, wildcards.round, "to_label")
+
+
+def labels_before(wildcards):
+    r = int(wildcards.round)
+    return [] if r == 0 else round_file(wildcards, r - 1, "labels.npz")

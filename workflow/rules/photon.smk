@@ -25,7 +25,7 @@ rule photon_conditions:
 
 rule photon_real_capture:
     input:
-        Path(config["photon"].get("real_captures", "")) / "{capture}.mat",
+        f"{REAL_CAPTURES}/{{capture}}.mat",
     output:
         report(
             f"{RESULTS}/photon/real/{{capture}}.png",

@@ -109,3 +109,22 @@ rule summary:
         notes=lambda w: dataset_notes(w.dataset),
     script:
         "../scripts/summary.py"
+
+
+rule run_config:
+    output:
+        f"{RESULTS}/config.yaml",
+    log:
+        f"{RESULTS}/logs/run_config.log",
+    benchmark:
+        f"{RESULTS}/benchmarks/run_config.tsv"
+    conda:
+        "../envs/spl-al.yaml"
+    threads: 1
+    resources:
+        mem_mb=500,
+        runtime=5,
+    params:
+        config=config,
+    script:
+        "../scripts/run_config.py"

@@ -24,4 +24,5 @@ with job_log(
         device=snakemake.params.device,
         threads=snakemake.threads,
         log=log,
+        labels_path=snakemake.input.labels or None,
     )

@@ -8,6 +8,7 @@ Public API:
 - ``make_classification_dataset``: the 11 procedural object categories, observed.
 - ``make_segmentation_dataset``: procedural street scenes with per-pixel labels, observed.
 - ``load_folder``: the authors' released layout or a generic ``root/{class}/`` folder.
+- ``load_unlabeled_folder``: depth files without labels, the pool of a human oracle.
 - ``observe``: observed images of clean depth at per-sample conditions.
 - ``contact_sheet``, ``variants_sheet``: PNG pictures of a dataset.
 """
@@ -17,6 +18,7 @@ from spl_al.data.external import load_folder
 from spl_al.data.observe import DEFAULT_LEVELS, DEFAULT_SBR, condition_set, observe
 from spl_al.data.pictures import contact_sheet, variants_sheet
 from spl_al.data.synthetic import make_classification_dataset, make_segmentation_dataset
+from spl_al.data.unlabeled import load_unlabeled_folder
 
 __all__ = [
     "DEFAULT_LEVELS",
@@ -26,6 +28,7 @@ __all__ = [
     "condition_set",
     "contact_sheet",
     "load_folder",
+    "load_unlabeled_folder",
     "make_classification_dataset",
     "make_segmentation_dataset",
     "observe",

@@ -42,7 +42,7 @@ from pathlib import Path
 import numpy as np
 
 from spl_al.data import storage
-from spl_al.labels import IGNORE_INDEX
+from spl_al.labels import IGNORE_INDEX, UNKNOWN_CLASS
 from spl_al.photon import SensorParams
 
 FORMAT = "spl-al-dataset"
@@ -91,7 +91,8 @@ class Dataset:
         classes: class names; ``labels`` index into them.
         depth_m: (N, H, W) float32 observed depth, metres, NaN at voids.
         labels: (N,) int64 class indices, or (N, H, W) uint8 per-pixel classes with
-            ``IGNORE_INDEX`` (255) where there is no label (sky, no return).
+            ``IGNORE_INDEX`` (255) where there is no label (sky, no return). A sample
+            of an unlabeled pool has ``UNKNOWN_CLASS`` (-1) or an all-255 mask.
         split: (N,) str, "train" or "test".
         msppp, sbr: (N,) float64 imaging condition of each observed image (NaN if unknown).
         level: (N,) str MSPPP level, "high" / "medium" / "low", or "unknown".
@@ -203,9 +204,9 @@ class Dataset:
                     f"classification labels must have shape ({n},), got {labels.shape}."
                 )
             labels = labels.astype(np.int64)
-            if labels.size and (labels.min() < 0 or labels.max() >= k):
+            if labels.size and (labels.min() < UNKNOWN_CLASS or labels.max() >= k):
                 raise ValueError(
-                    f"labels must index classes (0..{k - 1}), "
+                    f"labels must index classes (0..{k - 1}, or {UNKNOWN_CLASS} = unknown), "
                     f"got range {labels.min()}..{labels.max()}."
                 )
         else:

@@ -7,7 +7,7 @@ msppp, sbr))``: Algorithm 1's measurement model followed by ML reconstruction
 its reconstructed reflectivity is what SIV later simulates variants from.
 
 Default conditions: MSPPP levels high = 10, medium = 5, low = 2 signal photons per
-pixel (the range of the SPL literature, METHOD.md section 2) and SBR drawn from
+pixel (the range of the SPL literature, docs/method.md section 2) and SBR drawn from
 {0.2, 1, 5} (background 5x the signal, equal, a fifth). Levels are assigned
 balanced within each class and split, so every per-level test subset has the same
 class mix; SBR is drawn uniformly at random.

@@ -158,7 +158,12 @@ def dataset_runs(config: dict, dataset: str) -> dict[tuple[str, int], int]:
 def check_plan(config: dict) -> None:
     """Every method a dataset's experiments name must exist; rounds must be >= 1."""
     specs = method_specs(config)
-    for dataset in config["datasets"]:
+    for dataset, entry in config["datasets"].items():
+        if entry.get("source") == "unlabeled" and entry.get("oracle") != "human":
+            raise ValueError(
+                f"config key 'datasets.{dataset}.oracle': an unlabeled folder has no labels "
+                "to simulate the oracle with; set oracle: human."
+            )
         for (method, _seed), rounds in dataset_runs(config, dataset).items():
             if method not in specs:
                 raise ValueError(

@@ -46,7 +46,9 @@ def make_dataset(entry: dict, out_path) -> dict:
     if "image_shape" in synthesis:
         synthesis["image_shape"] = tuple(synthesis["image_shape"])
     standin = False
-    if entry["source"] == "folder" and entry.get("path"):
+    if entry["source"] == "unlabeled":
+        dataset = _unlabeled_dataset(entry, synthesis)
+    elif entry["source"] == "folder" and entry.get("path"):
         root = Path(entry["path"])
         if not root.is_dir():
             raise ValueError(f"dataset folder {root} does not exist (config key 'path').")
@@ -75,6 +77,30 @@ def make_dataset(entry: dict, out_path) -> dict:
     dataset.meta["synthetic_standin"] = standin
     dataset.save(out_path)
     return {"samples": len(dataset), "standin": standin}
+
+
+def _unlabeled_dataset(entry: dict, synthesis: dict):
+    """An unlabeled folder (human oracle); its seed labels' test rows are the test split."""
+    from spl_al.data.unlabeled import load_unlabeled_folder
+
+    if not entry.get("path") or not Path(entry["path"]).is_dir():
+        raise ValueError(
+            f"config key 'path': {entry.get('path')!r} is not a folder of depth files."
+        )
+    dataset = load_unlabeled_folder(
+        entry["path"],
+        entry.get("classes"),
+        task=entry["task"],
+        seed_labels=entry.get("seed_labels"),
+        depth_key=entry.get("depth_key", "depth_ssp"),
+        image_shape=synthesis.get("image_shape"),
+    )
+    if not dataset.test_idx.size:
+        raise ValueError(
+            "config key 'seed_labels': no row has split 'test'; label a few samples as test "
+            "there, they measure the model every round."
+        )
+    return dataset
 
 
 def make_variant_shard(observed_path, variants: dict, shard: int, out_path) -> dict:
@@ -189,9 +215,13 @@ def train_round(
     device: str = "auto",
     threads: int | None = None,
     log=None,
+    labels_path=None,
 ) -> dict:
     """Train on round r's labeled groups, evaluate on the test split, then score the
     unlabeled pool for the next query (``score_pool``) with the model still in memory.
+
+    The training labels are the dataset's (the simulated oracle), or with
+    ``labels_path`` the ones a person gave (``spl_al.labeling.save_labels``).
 
     ``setup`` holds ``train`` (``model``: arch and its parameters, ``fit``: a
     TrainConfig) and ``method`` (MethodSpec fields). A method with ``use_variants``
@@ -213,7 +243,13 @@ def train_round(
     sample_idx = dataset.train_idx[pool_idx]
     m = _n_variants(method, dataset) if method.use_variants else 0
     depth, valid = dataset.groups(sample_idx, n_variants=m)
-    targets = np.repeat(dataset.labels[sample_idx], depth.shape[1], axis=0)
+    if labels_path is None:
+        given = dataset.labels[sample_idx]
+    else:
+        from spl_al.labeling import labels_for
+
+        given = labels_for(labels_path, pool_idx).astype(dataset.labels.dtype)
+    targets = np.repeat(given, depth.shape[1], axis=0)
     images = depth.reshape(-1, *depth.shape[2:])
     model = _model(dataset, setup["train"]["model"])
     model = train(
@@ -260,7 +296,7 @@ def train_round(
         "per_level": {
             level: float(v[key])
             for level, v in metrics.get("per_level", {}).items()
-            if v[key] is not None and level in LEVELS
+            if v[key] is not None and level in LEVELS  # not "unknown" (external files)
         },
         "synthetic_standin": bool(dataset.meta.get("synthetic_standin", False)),
         "train_images": int(images.shape[0]),

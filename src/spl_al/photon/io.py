@@ -14,7 +14,7 @@ def load_mat(
 ) -> PhotonEvents:
     """Photon events of a MATLAB capture holding a sparse (pixels x bins) count matrix.
 
-    The layout of Yao et al. 2022 (``shared/data/ugv45m``): ``spad`` is 4096 x 10000,
+    The layout of Yao et al. 2022 (the ``ugv45m`` captures): ``spad`` is 4096 x 10000,
     rows are the 64 x 64 pixels in MATLAB column-major order (``order="F"``: pixel
     p is at row p % 64, column p // 64), columns are time bins.
 

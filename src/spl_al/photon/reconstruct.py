@@ -1,4 +1,4 @@
-"""Depth, reflectivity and background from photon events (METHOD.md section 1).
+"""Depth, reflectivity and background from photon events (docs/method.md section 1).
 
 The paper turns photons back into depth with SSPI (Yao et al. 2022), a learned
 sparse 3-D U-Net over the histogram cube. Its trained weights are not available
@@ -297,7 +297,7 @@ def reconstruct(
 ) -> Reconstruction:
     """Recover depth, reflectivity and background per pixel from photon events.
 
-    Maximises the Poisson log-likelihood of METHOD.md section 1 with a Gaussian IRF
+    Maximises the Poisson log-likelihood of docs/method.md section 1 with a Gaussian IRF
     (sigma from ``sensor``) and a uniform background; see the module docstring for
     what ``"lmf"`` and ``"pooled"`` do and why SSPI is not used.
 

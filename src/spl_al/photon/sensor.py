@@ -68,7 +68,7 @@ class SensorParams:
 
     @classmethod
     def ugv45m(cls) -> SensorParams:
-        """The real captures in ``shared/data/ugv45m``: 10,000 bins of 100 ps (1 MHz
+        """The ugv45m real captures (Yao et al. 2022): 10,000 bins of 100 ps (1 MHz
         laser, ~150 m), 520 ps jitter as for the paper's sensor (5.2 bins)."""
         return cls(bin_width_s=100e-12, pulse_sigma_s=520e-12, n_bins=10_000)
 

@@ -1,4 +1,4 @@
-"""Photon simulation: the SPL measurement model of SIV (METHOD.md section 2, Algorithm 1)."""
+"""Photon simulation: the SPL measurement model of SIV (docs/method.md section 2, Algorithm 1)."""
 
 from __future__ import annotations
 

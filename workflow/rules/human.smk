@@ -1,0 +1,134 @@
+# Human oracle (datasets with `oracle: human`): every labeled set is a labeling batch
+# a person labels. initial_set_human -> to_label_initial; query_human -> to_label_round;
+# accept_labels checks the filled label file and writes the round's labeled set and
+# labels. Until the label file exists, accept_labels stops the run naming it.
+
+
+rule initial_set_human:
+    input:
+        f"{RESULTS}/{{dataset}}/data/observed.npz",
+        seed_labels=lambda w: config["datasets"][w.dataset].get("seed_labels") or [],
+    output:
+        f"{RESULTS}/{{dataset}}/initial/seed{{seed}}.json",
+    log:
+        f"{RESULTS}/logs/{{dataset}}/initial_seed{{seed}}.log",
+    benchmark:
+        f"{RESULTS}/benchmarks/{{dataset}}/initial_seed{{seed}}.tsv"
+    wildcard_constraints:
+        dataset=one_of(HUMAN),
+    conda:
+        "../envs/spl-al.yaml"
+    threads: 1
+    resources:
+        mem_mb=1000,
+        runtime=5,
+    params:
+        al=lambda w: config["datasets"][w.dataset]["al"],
+        seed_labels=lambda w: config["datasets"][w.dataset].get("seed_labels"),
+    script:
+        "../scripts/initial_set_human.py"
+
+
+rule query_human:
+    input:
+        scores=lambda w: previous_round(w, "scores.npz"),
+        labeled=previous_labeled,
+    output:
+        f"{RUN}/round{{round}}/query.json",
+    log:
+        f"{RESULTS}/logs/{{dataset}}/{{method}}/seed{{seed}}/round{{round}}_query.log",
+    benchmark:
+        f"{RESULTS}/benchmarks/{{dataset}}/{{method}}/seed{{seed}}/round{{round}}_query.tsv"
+    wildcard_constraints:
+        round=r"[1-9]\d*",
+        dataset=one_of(HUMAN),
+    group:
+        query_group
+    conda:
+        "../envs/spl-al.yaml"
+    threads: 1
+    resources:
+        mem_mb=4000,
+        runtime=30,
+    params:
+        method=lambda w: dataset_method(config, w.dataset, w.method, METHODS).as_dict(),
+        batch=lambda w: config["datasets"][w.dataset]["al"]["batch"],
+    script:
+        "../scripts/query.py"
+
+
+rule to_label_initial:
+    input:
+        data=f"{RESULTS}/{{dataset}}/data/dataset.npz",
+        request=f"{RESULTS}/{{dataset}}/initial/seed{{seed}}.json",
+    output:
+        directory(f"{RESULTS}/{{dataset}}/initial/seed{{seed}}/to_label"),
+    log:
+        f"{RESULTS}/logs/{{dataset}}/initial_seed{{seed}}_to_label.log",
+    benchmark:
+        f"{RESULTS}/benchmarks/{{dataset}}/initial_seed{{seed}}_to_label.tsv"
+    wildcard_constraints:
+        dataset=one_of(HUMAN),
+    conda:
+        "../envs/spl-al.yaml"
+    threads: 1
+    resources:
+        mem_mb=2000,
+        runtime=10,
+    params:
+        labels_file=lambda w: initial_labels_file(w.dataset, w.seed),
+    script:
+        "../scripts/label_batch.py"
+
+
+rule to_label_round:
+    input:
+        data=f"{RESULTS}/{{dataset}}/data/dataset.npz",
+        request=f"{RUN}/round{{round}}/query.json",
+    output:
+        directory(f"{RUN}/round{{round}}/to_label"),
+    log:
+        f"{RESULTS}/logs/{{dataset}}/{{method}}/seed{{seed}}/round{{round}}_to_label.log",
+    benchmark:
+        f"{RESULTS}/benchmarks/{{dataset}}/{{method}}/seed{{seed}}/round{{round}}_to_label.tsv"
+    wildcard_constraints:
+        round=r"[1-9]\d*",
+        dataset=one_of(HUMAN),
+    conda:
+        "../envs/spl-al.yaml"
+    threads: 1
+    resources:
+        mem_mb=2000,
+        runtime=10,
+    params:
+        labels_file=labels_file,
+    script:
+        "../scripts/label_batch.py"
+
+
+rule accept_labels:
+    input:
+        data=f"{RESULTS}/{{dataset}}/data/dataset.npz",
+        request=labeling_request,
+        batch=labeling_batch,
+        before=labels_before,
+        given=labels_file_if_given,
+    output:
+        labeled=f"{RUN}/round{{round}}/labeled.json",
+        labels=f"{RUN}/round{{round}}/labels.npz",
+    log:
+        f"{RESULTS}/logs/{{dataset}}/{{method}}/seed{{seed}}/round{{round}}_accept_labels.log",
+    benchmark:
+        f"{RESULTS}/benchmarks/{{dataset}}/{{method}}/seed{{seed}}/round{{round}}_accept_labels.tsv"
+    wildcard_constraints:
+        dataset=one_of(HUMAN),
+    conda:
+        "../envs/spl-al.yaml"
+    threads: 1
+    resources:
+        mem_mb=2000,
+        runtime=5,
+    params:
+        labels_file=labels_file,
+    script:
+        "../scripts/accept_labels.py"
