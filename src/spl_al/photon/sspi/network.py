@@ -158,11 +158,13 @@ class SparseUNet:
         sites = [x]  # the site set of each level 0..3
         subm = [submanifold_rulebook(x)]
         down: list[Rulebook] = []
+        up: list[Rulebook] = []
         for _ in range(3):
-            coords, shape, book = strided_rulebook(sites[-1])
+            coords, shape, forward, inverse = strided_rulebook(sites[-1])
             sites.append(SparseTensor(coords, coords.new_zeros((coords.shape[0], 0)), shape))
             subm.append(submanifold_rulebook(sites[-1]))
-            down.append(book)
+            down.append(forward)
+            up.append(inverse)
 
         h = self._conv("start_head.0", x.features.float(), subm[0])
         h = self._conv("start_head.3", self._norm_relu("start_head.1", h), subm[0])
@@ -175,9 +177,9 @@ class SparseUNet:
                 skips.append(self._residual(f"path{level + 1}_0.0", h, subm[level + 1]))
         h = self._residual("path3.1", self._residual("path3.0", h, subm[3]), subm[3])
         for level in (2, 1, 0):
-            up = self._norm_relu(f"upsample{level}.0", h)
-            up = self._conv(f"upsample{level}.2", up, down[level].inverse())
-            h = self._residual(f"path{level}_1.0", torch.cat((skips[level], up), 1), subm[level])
+            h_up = self._norm_relu(f"upsample{level}.0", h)
+            h_up = self._conv(f"upsample{level}.2", h_up, up[level])
+            h = self._residual(f"path{level}_1.0", torch.cat((skips[level], h_up), 1), subm[level])
         h = self._residual("path0_1.1", h, subm[0])
         h = self._conv("end_tail.2", self._norm_relu("end_tail.0", h), subm[0])
         h = self._conv("end_tail.5", self._norm_relu("end_tail.3", h), subm[0])
@@ -189,18 +191,23 @@ def dilate_sites(
 ) -> torch.Tensor:
     """Box dilation of (N, 3) (t, row, col) sites by +-``bins`` and +-``pixels``, clipped.
 
-    Done one axis at a time (each step de-duplicates), so the work stays near the
-    size of the result. Returns (M, 3) int64 unique sites sorted by linear key.
+    Done one axis at a time on row-major linear keys (each step de-duplicates), so
+    the work stays near the size of the result. Returns (M, 3) int64 unique sites
+    sorted row-major.
     """
-    bound = torch.tensor(tuple(shape), device=coords.device)
-    for axis, reach in ((0, bins), (1, pixels), (2, pixels)):
-        step = torch.zeros((2 * reach + 1, 3), dtype=torch.int64, device=coords.device)
-        step[:, axis] = torch.arange(-reach, reach + 1, device=coords.device)
-        grown = (coords[:, None, :] + step[None]).reshape(-1, 3)
-        grown = grown[((grown >= 0) & (grown < bound)).all(1)]
-        coords = torch.unique(grown, dim=0)
-    order = torch.argsort(linear_key(coords, shape))
-    return coords[order]
+    t_bins, rows, cols = (int(s) for s in shape)
+    key = torch.unique(linear_key(coords, shape))
+    for stride, size, reach in (
+        (rows * cols, t_bins, bins),
+        (cols, rows, pixels),
+        (1, cols, pixels),
+    ):
+        position = (key // stride) % size  # the coordinate along this axis
+        delta = torch.arange(-reach, reach + 1, device=key.device)
+        moved = position[:, None] + delta[None]
+        inside = (moved >= 0) & (moved < size)
+        key = torch.unique((key[:, None] + delta[None] * stride)[inside])
+    return torch.stack((key // (rows * cols), (key // cols) % rows, key % cols), dim=1)
 
 
 class SSPI:
@@ -210,15 +217,36 @@ class SSPI:
         denoiser_state, estimator_state: the ``state_dict`` of ``ssunet1.pth`` and
             ``ssunet2.pth``.
         device: where to compute (CPU or CUDA; the same code runs on both).
+        cpu_threads: torch threads while a frame runs on CPU (restored after). One by
+            default: the gathers are memory-bound, and on a shared or busy machine
+            more threads cost more than they give; parallelise over frames instead.
     """
 
-    def __init__(self, denoiser_state, estimator_state, device: torch.device | str = "cpu"):
+    def __init__(
+        self,
+        denoiser_state,
+        estimator_state,
+        device: torch.device | str = "cpu",
+        cpu_threads: int = 1,
+    ):
         self.device = torch.device(device)
+        self.cpu_threads = int(cpu_threads)
         self.denoiser = SparseUNet(denoiser_state, self.device)
         self.estimator = SparseUNet(estimator_state, self.device)
 
-    @torch.no_grad()
     def __call__(self, coords: torch.Tensor, counts: torch.Tensor, shape) -> dict:
+        """Reconstruct one frame (see ``run``), single-threaded on CPU by default."""
+        if self.device.type != "cpu":
+            return self.run(coords, counts, shape)
+        before = torch.get_num_threads()
+        torch.set_num_threads(self.cpu_threads)
+        try:
+            return self.run(coords, counts, shape)
+        finally:
+            torch.set_num_threads(before)
+
+    @torch.no_grad()
+    def run(self, coords: torch.Tensor, counts: torch.Tensor, shape) -> dict:
         """Reconstruct one frame.
 
         Args:

@@ -18,14 +18,14 @@ index grid is allocated either. The three layer kinds of SSPI (spconv semantics)
   i = o + k - c with c the kernel centre (cross-correlation, as torch's conv3d);
 - strided conv (``SparseConv3d``, stride s, padding p): i = s o - p + k; the output
   sites are every o in range that some active input reaches;
-- inverse conv (``SparseInverseConv3d``): the rulebook of a strided conv read
-  backwards, y[i] = b + sum_k sum_{(i, o) in R_k} x[o] W_k, producing features at
-  exactly the strided conv's input sites (a transposed conv restricted to them).
+- inverse conv (``SparseInverseConv3d``): the links of a strided conv read
+  backwards, y[i] = b + sum over (o, k) with i = s o - p + k of x[o] W_k, giving
+  features at exactly the strided conv's input sites (a transposed conv
+  restricted to them, with the same offset numbering k, no kernel flip).
 """
 
 from __future__ import annotations
 
-import itertools
 from dataclasses import dataclass
 
 import torch
@@ -63,72 +63,74 @@ def linear_key(coords: torch.Tensor, shape) -> torch.Tensor:
 
 
 class SiteIndex:
-    """Find the row of a coordinate among a tensor's active sites, via sorted keys."""
+    """Find the row of a site among a tensor's active sites, via sorted linear keys."""
 
     def __init__(self, coords: torch.Tensor, shape):
         self.shape = tuple(int(s) for s in shape)
         self.sorted_key, self.order = torch.sort(linear_key(coords, self.shape))
 
+    def find_keys(self, key: torch.Tensor, inside: torch.Tensor | None = None) -> torch.Tensor:
+        """Row of each linear ``key`` (any shape); -1 where inactive or not ``inside``."""
+        missing = torch.full_like(key, -1)
+        if self.sorted_key.numel() == 0:
+            return missing
+        pos = torch.searchsorted(self.sorted_key, key).clamp_(max=self.sorted_key.numel() - 1)
+        hit = self.sorted_key[pos] == key
+        if inside is not None:
+            hit &= inside
+        return torch.where(hit, self.order[pos], missing)
+
     def find(self, coords: torch.Tensor) -> torch.Tensor:
         """(M,) int64 row of each of the (M, 3) ``coords``; -1 where inactive or outside."""
         bound = torch.tensor(self.shape, device=coords.device)
         inside = ((coords >= 0) & (coords < bound)).all(1)
-        key = linear_key(coords.clamp(min=0), self.shape)
-        pos = torch.searchsorted(self.sorted_key, key).clamp(
-            max=max(self.sorted_key.numel() - 1, 0)
-        )
-        if self.sorted_key.numel() == 0:
-            return torch.full_like(key, -1)
-        hit = inside & (self.sorted_key[pos] == key)
-        return torch.where(hit, self.order[pos], torch.full_like(key, -1))
+        return self.find_keys(linear_key(coords.clamp(min=0), self.shape), inside)
+
+
+def _outer3(a: torch.Tensor, b: torch.Tensor, c: torch.Tensor, combine) -> torch.Tensor:
+    """(N, Ka Kb Kc) from per-axis (N, Ka), (N, Kb), (N, Kc) via ``combine`` (row-major)."""
+    out = combine(combine(a[:, :, None, None], b[:, None, :, None]), c[:, None, None, :])
+    return out.reshape(a.shape[0], -1)
 
 
 @dataclass(frozen=True)
 class Rulebook:
-    """The (input row, output row) pairs a convolution links, grouped by kernel offset.
+    """Which input row each output site reads through each kernel offset.
 
     Attributes:
-        in_rows, out_rows: (P,) int64 pair rows, sorted by kernel offset.
-        pairs_per_offset: K Python ints, how many pairs each offset has (sum = P).
-        n_in, n_out: number of input and output sites.
+        table: (n_out, K) int64; table[o, k] is the input row linked to output o by
+            offset k, or n_in when there is none (it then reads a row of zeros).
+        n_in: number of input sites.
     """
 
-    in_rows: torch.Tensor
-    out_rows: torch.Tensor
-    pairs_per_offset: list[int]
+    table: torch.Tensor
     n_in: int
-    n_out: int
 
-    def inverse(self) -> Rulebook:
-        """The same pairs with input and output swapped (for the inverse conv)."""
-        return Rulebook(self.out_rows, self.in_rows, self.pairs_per_offset, self.n_out, self.n_in)
-
-
-def kernel_offsets(kernel, device=None) -> torch.Tensor:
-    """(K, 3) int64 offsets (a, b, c) of a kernel, row-major: k = (a kH + b) kW + c."""
-    grid = itertools.product(*(range(int(k)) for k in kernel))
-    return torch.tensor(list(grid), dtype=torch.int64, device=device).reshape(-1, 3)
-
-
-def _rulebook_from_lists(in_rows, out_rows, n_in, n_out) -> Rulebook:
-    counts = [int(r.numel()) for r in in_rows]
-    return Rulebook(torch.cat(in_rows), torch.cat(out_rows), counts, n_in, n_out)
+    @property
+    def n_out(self) -> int:
+        return int(self.table.shape[0])
 
 
 def submanifold_rulebook(x: SparseTensor, kernel=(3, 3, 3)) -> Rulebook:
-    """Pairs of a submanifold conv: output site o reads input site o + k - c."""
-    index = SiteIndex(x.coords, x.shape)
-    offsets = kernel_offsets(kernel, x.coords.device)
-    centre = torch.tensor([int(k) // 2 for k in kernel], device=x.coords.device)
-    rows = torch.arange(x.coords.shape[0], device=x.coords.device)
-    in_rows, out_rows = [], []
-    for offset in offsets:
-        found = index.find(x.coords + (offset - centre))
-        hit = found >= 0
-        in_rows.append(found[hit])
-        out_rows.append(rows[hit])
+    """Rulebook of a submanifold conv: output site o reads input site o + k - c.
+
+    Neighbour keys and the in-grid test are built per axis and broadcast to the
+    (N, K) table, so no (N K, 3) coordinate array is materialised.
+    """
+    device = x.coords.device
     n = x.coords.shape[0]
-    return _rulebook_from_lists(in_rows, out_rows, n, n)
+    shift, inside = [], []
+    for axis, k in enumerate(kernel):
+        delta = torch.arange(int(k), device=device) - int(k) // 2
+        moved = x.coords[:, axis, None] + delta[None]  # (N, k)
+        inside.append((moved >= 0) & (moved < x.shape[axis]))
+        shift.append(delta[None].expand(n, -1))
+    strides = (x.shape[1] * x.shape[2], x.shape[2], 1)
+    key = linear_key(x.coords, x.shape)[:, None] + _outer3(
+        shift[0] * strides[0], shift[1] * strides[1], shift[2] * strides[2], torch.add
+    )
+    found = SiteIndex(x.coords, x.shape).find_keys(key, _outer3(*inside, torch.logical_and))
+    return Rulebook(torch.where(found >= 0, found, n), n)
 
 
 def strided_output_shape(shape, kernel, stride, padding) -> tuple[int, int, int]:
@@ -140,31 +142,35 @@ def strided_output_shape(shape, kernel, stride, padding) -> tuple[int, int, int]
 
 
 def strided_rulebook(x: SparseTensor, kernel=(3, 3, 3), stride=(2, 2, 2), padding=(1, 1, 1)):
-    """Output sites and pairs of a (regular, site-creating) sparse conv.
+    """Output sites and rulebooks of a (regular, site-creating) sparse conv.
 
     Input site i feeds output o through offset k when i = s o - p + k, i.e.
-    o = (i + p - k) / s for integer o inside the output grid.
+    o = (i + p - k) / s for integer o inside the output grid (tested per axis, then
+    broadcast to the K offsets). The inverse rulebook reads the same links
+    backwards: input site i gathers output o through offset k.
 
     Returns:
-        (out_coords (M, 3) int64 sorted by linear key, out_shape, Rulebook).
+        (out_coords (M, 3) int64 sorted row-major, out_shape, forward Rulebook with
+        M rows, inverse Rulebook with N rows).
     """
     device = x.coords.device
     out_shape = strided_output_shape(x.shape, kernel, stride, padding)
-    s = torch.tensor(stride, device=device)
-    p = torch.tensor(padding, device=device)
-    bound = torch.tensor(out_shape, device=device)
-    offsets = kernel_offsets(kernel, device)
-    rows = torch.arange(x.coords.shape[0], device=device)
-    cand_in, cand_key, cand_offset = [], [], []
-    for k, offset in enumerate(offsets):
-        numer = x.coords + p - offset
-        o = torch.div(numer, s, rounding_mode="floor")
-        ok = ((numer - o * s) == 0).all(1) & ((o >= 0) & (o < bound)).all(1)
-        cand_in.append(rows[ok])
-        cand_key.append(linear_key(o[ok], out_shape))
-        cand_offset.append(torch.full((int(ok.sum()),), k, device=device))
-    keys = torch.cat(cand_key)
-    out_key, out_row = torch.unique(keys, sorted=True, return_inverse=True)
+    n = x.coords.shape[0]
+    out_pos, ok = [], []
+    for axis in range(3):
+        numer = (
+            x.coords[:, axis, None] + int(padding[axis]) - torch.arange(kernel[axis], device=device)
+        )
+        o = torch.div(numer, int(stride[axis]), rounding_mode="floor")  # (N, k)
+        ok.append((numer == o * int(stride[axis])) & (o >= 0) & (o < out_shape[axis]))
+        out_pos.append(o)
+    linked = _outer3(*ok, torch.logical_and)  # (N, K)
+    out_key_all = _outer3(
+        out_pos[0] * (out_shape[1] * out_shape[2]), out_pos[1] * out_shape[2], out_pos[2], torch.add
+    )
+    in_row, k = linked.nonzero(as_tuple=True)
+    out_key, out_row = torch.unique(out_key_all[in_row, k], return_inverse=True)
+    n_out = out_key.numel()
     out_coords = torch.stack(
         (
             out_key // (out_shape[1] * out_shape[2]),
@@ -173,10 +179,12 @@ def strided_rulebook(x: SparseTensor, kernel=(3, 3, 3), stride=(2, 2, 2), paddin
         ),
         dim=1,
     )
-    # Candidates were generated offset by offset, so they are already grouped by k.
-    counts = [int(c.numel()) for c in cand_in]
-    book = Rulebook(torch.cat(cand_in), out_row, counts, x.coords.shape[0], out_key.numel())
-    return out_coords, out_shape, book
+    n_offsets = linked.shape[1]
+    forward = torch.full((n_out, n_offsets), n, dtype=torch.int64, device=device)
+    forward[out_row, k] = in_row
+    inverse = torch.full((n, n_offsets), n_out, dtype=torch.int64, device=device)
+    inverse[in_row, k] = out_row
+    return out_coords, out_shape, Rulebook(forward, n), Rulebook(inverse, n_out)
 
 
 def conv_weight(spconv_weight: torch.Tensor) -> torch.Tensor:
@@ -186,25 +194,35 @@ def conv_weight(spconv_weight: torch.Tensor) -> torch.Tensor:
 
 
 def apply_rulebook(
-    features: torch.Tensor, book: Rulebook, weight: torch.Tensor, bias: torch.Tensor | None = None
+    features: torch.Tensor,
+    book: Rulebook,
+    weight: torch.Tensor,
+    bias: torch.Tensor | None = None,
+    rows_per_chunk: int = 4096,
 ) -> torch.Tensor:
-    """Gather / matmul / scatter: y[o] = b + sum_k sum_{(i, o) in R_k} x[i] W_k.
+    """Gather / matmul: y[o] = b + sum_k x[table[o, k]] W_k (a missing input reads 0).
+
+    The K gathered input rows of an output form one (K C_in) vector, so the sum
+    over offsets is a single (n_out, K C_in) x (K C_in, C_out) product, done in
+    chunks of ``rows_per_chunk`` outputs to bound memory.
 
     Args:
         features: (n_in, C_in) input features.
-        book: the pairs, grouped by kernel offset.
+        book: the rulebook, ``book.n_in == n_in``.
         weight: (K, C_in, C_out), see ``conv_weight``.
         bias: (C_out,) or None.
 
     Returns:
         (n_out, C_out) output features.
     """
-    out = features.new_zeros((book.n_out, weight.shape[2]))
-    ins = torch.split(book.in_rows, book.pairs_per_offset)
-    outs = torch.split(book.out_rows, book.pairs_per_offset)
-    for k, (i, o) in enumerate(zip(ins, outs, strict=True)):
-        if i.numel():
-            out.index_add_(0, o, features[i] @ weight[k])
+    n_offsets, c_in, c_out = weight.shape
+    padded = torch.cat((features, features.new_zeros((1, c_in))))
+    flat_weight = weight.reshape(n_offsets * c_in, c_out)
+    out = features.new_empty((book.n_out, c_out))
+    for start in range(0, book.n_out, rows_per_chunk):
+        table = book.table[start : start + rows_per_chunk]
+        gathered = torch.index_select(padded, 0, table.reshape(-1))
+        out[start : start + table.shape[0]] = gathered.reshape(table.shape[0], -1) @ flat_weight
     if bias is not None:
         out += bias
     return out
