@@ -119,8 +119,12 @@ def test_untrained_bin_width_and_frame_warn_once(fake_weights):
     sspi._WARNED.clear()
     with pytest.warns(UserWarning, match="bin width 1000 ps is outside the 80-100 ps") as record:
         reconstruct(ev, scene.shape, sensor, method="sspi", weights=fake_weights)
-    assert any("differs from the 64x64" in str(w.message) for w in record)
+    assert any("differ from the 64x64" in str(w.message) for w in record)
     with warnings.catch_warnings():
-        warnings.simplefilter("error")  # a second frame under the same conditions: silent
+        warnings.simplefilter("error")  # later frames, of any size: silent
         reconstruct(ev, scene.shape, sensor, method="sspi", weights=fake_weights)
+        smaller = simulate_photons(
+            scene[:6], None, None, 2.0, 1.0, sensor, np.random.default_rng(3)
+        )
+        reconstruct(smaller, (6, 10), sensor, method="sspi", weights=fake_weights)
     assert sspi.check_conditions(SensorParams.ugv45m(), (64, 64)) == []

@@ -1,4 +1,5 @@
 # Shared names and input functions; rules live in the other .smk files.
+import shlex
 from pathlib import Path
 
 from spl_al.experiment.plan import (
@@ -130,3 +131,9 @@ def dataset_tables(dataset):
     """The tables a dataset's experiments ask for (budget, levels, ablation, sensitivity)."""
     exps = config["datasets"][dataset].get("experiments", {})
     return [t for t in ("budget", "levels", "ablation", "sensitivity") if t in exps]
+
+
+def sspi_args(flag=""):
+    """Command-line options naming SSPI's weights when config photon.sspi_weights is set."""
+    folder = config["photon"].get("sspi_weights")
+    return f"{flag} --weights {shlex.quote(str(folder))}".strip() if folder else ""

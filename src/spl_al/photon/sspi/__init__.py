@@ -30,24 +30,25 @@ def check_conditions(sensor: SensorParams, shape) -> list[str]:
     surface's slope span other numbers of bins than in training, and its accuracy
     there is unmeasured. Depth is read out in whole bins either way.
     """
-    reasons = []
+    reasons = {}  # kind -> message; each kind warns once per process
     lo, hi = TRAINED_BIN_WIDTH_S
     if not lo * (1 - 1e-6) <= sensor.bin_width_s <= hi * (1 + 1e-6):
-        reasons.append(
+        reasons[f"bin width {sensor.bin_width_s}"] = (
             f"bin width {sensor.bin_width_s * 1e12:g} ps is outside the 80-100 ps "
             "the SSPI weights were trained on"
         )
     if tuple(int(s) for s in shape) != TRAINED_FRAME:
-        reasons.append(
-            f"frame {tuple(shape)} differs from the 64x64 frames the SSPI weights were trained on"
+        reasons["frame"] = (
+            f"frames such as {tuple(shape)} differ from the 64x64 frames the SSPI weights "
+            "were trained on"
         )
-    for reason in reasons:
-        if reason not in _WARNED:
-            _WARNED.add(reason)
+    for kind, reason in reasons.items():
+        if kind not in _WARNED:
+            _WARNED.add(kind)
             warnings.warn(
                 f"{reason}; SSPI runs unchanged but its accuracy there is unmeasured.", stacklevel=3
             )
-    return reasons
+    return list(reasons.values())
 
 
 def reconstruct_sspi(
