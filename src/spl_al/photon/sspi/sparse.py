@@ -111,26 +111,40 @@ class Rulebook:
         return int(self.table.shape[0])
 
 
-def submanifold_rulebook(x: SparseTensor, kernel=(3, 3, 3)) -> Rulebook:
-    """Rulebook of a submanifold conv: output site o reads input site o + k - c.
+def submanifold_rulebook(x: SparseTensor) -> Rulebook:
+    """Rulebook of a 3x3x3 submanifold conv: output site o reads input site o + k - 1.
 
-    Neighbour keys and the in-grid test are built per axis and broadcast to the
-    (N, K) table, so no (N K, 3) coordinate array is materialised.
+    Neighbour keys and the in-grid test are built per axis and broadcast, so no
+    (N K, 3) coordinate array is materialised. Only the 9 (d, h) offsets are
+    binary-searched: along the last axis the keys of (w - 1, w, w + 1) are
+    consecutive, so those neighbours, when active, are consecutive sorted rows
+    after the search position of w - 1.
     """
     device = x.coords.device
     n = x.coords.shape[0]
-    shift, inside = [], []
-    for axis, k in enumerate(kernel):
-        delta = torch.arange(int(k), device=device) - int(k) // 2
-        moved = x.coords[:, axis, None] + delta[None]  # (N, k)
+    delta = torch.arange(-1, 2, device=device)
+    inside = []
+    for axis in range(3):
+        moved = x.coords[:, axis, None] + delta[None]  # (N, 3)
         inside.append((moved >= 0) & (moved < x.shape[axis]))
-        shift.append(delta[None].expand(n, -1))
-    strides = (x.shape[1] * x.shape[2], x.shape[2], 1)
-    key = linear_key(x.coords, x.shape)[:, None] + _outer3(
-        shift[0] * strides[0], shift[1] * strides[1], shift[2] * strides[2], torch.add
+    d_h_shift = (delta[:, None] * (x.shape[1] * x.shape[2]) + delta[None, :] * x.shape[2]).reshape(
+        -1
     )
-    found = SiteIndex(x.coords, x.shape).find_keys(key, _outer3(*inside, torch.logical_and))
-    return Rulebook(torch.where(found >= 0, found, n), n)
+    first = linear_key(x.coords, x.shape)[:, None] + d_h_shift[None] - 1  # key of (d', h', w - 1)
+    index = SiteIndex(x.coords, x.shape)
+    table = torch.full((n, 9, 3), n, dtype=torch.int64, device=device)
+    if n == 0:
+        return Rulebook(table.reshape(0, 27), n)
+    last = n - 1
+    pos = torch.searchsorted(index.sorted_key, first)  # (N, 9)
+    inside_dh = (inside[0][:, :, None] & inside[1][:, None, :]).reshape(n, 9)
+    for j in range(3):
+        at = pos.clamp(max=last)
+        match = (index.sorted_key[at] == first + j) & (pos <= last)
+        hit = match & inside_dh & inside[2][:, j, None]  # a key past a grid edge is another site
+        table[:, :, j] = torch.where(hit, index.order[at], n)
+        pos = pos + match  # the next key sits one row further when this one is active
+    return Rulebook(table.reshape(n, 27), n)
 
 
 def strided_output_shape(shape, kernel, stride, padding) -> tuple[int, int, int]:
@@ -203,7 +217,7 @@ def apply_rulebook(
     """Gather / matmul: y[o] = b + sum_k x[table[o, k]] W_k (a missing input reads 0).
 
     The K gathered input rows of an output form one (K C_in) vector, so the sum
-    over offsets is a single (n_out, K C_in) x (K C_in, C_out) product, done in
+    over offsets is a single (K C_in) x C_out matrix product per output, done in
     chunks of ``rows_per_chunk`` outputs to bound memory.
 
     Args:
@@ -217,12 +231,14 @@ def apply_rulebook(
     """
     n_offsets, c_in, c_out = weight.shape
     padded = torch.cat((features, features.new_zeros((1, c_in))))
-    flat_weight = weight.reshape(n_offsets * c_in, c_out)
+    # (C_out, K C_in) times the transposed gather: a wide product, several times faster
+    # on CPU than the equivalent skinny (n, K C_in) x (K C_in, C_out) one.
+    weight_t = weight.reshape(n_offsets * c_in, c_out).T.contiguous()
     out = features.new_empty((book.n_out, c_out))
     for start in range(0, book.n_out, rows_per_chunk):
         table = book.table[start : start + rows_per_chunk]
-        gathered = torch.index_select(padded, 0, table.reshape(-1))
-        out[start : start + table.shape[0]] = gathered.reshape(table.shape[0], -1) @ flat_weight
+        gathered = torch.index_select(padded, 0, table.reshape(-1)).reshape(table.shape[0], -1)
+        out[start : start + table.shape[0]] = (weight_t @ gathered.T).T
     if bias is not None:
         out += bias
     return out
