@@ -98,7 +98,8 @@ class Rulebook:
     """Which input row each output site reads through each kernel offset.
 
     Attributes:
-        table: (n_out, K) int64; table[o, k] is the input row linked to output o by
+        table: (n_out, K) int32 (half the memory and gather traffic of int64);
+            table[o, k] is the input row linked to output o by
             offset k, or n_in when there is none (it then reads a row of zeros).
         n_in: number of input sites.
     """
@@ -132,7 +133,7 @@ def submanifold_rulebook(x: SparseTensor) -> Rulebook:
     )
     first = linear_key(x.coords, x.shape)[:, None] + d_h_shift[None] - 1  # key of (d', h', w - 1)
     index = SiteIndex(x.coords, x.shape)
-    table = torch.full((n, 9, 3), n, dtype=torch.int64, device=device)
+    table = torch.full((n, 9, 3), n, dtype=torch.int32, device=device)
     if n == 0:
         return Rulebook(table.reshape(0, 27), n)
     last = n - 1
@@ -142,7 +143,7 @@ def submanifold_rulebook(x: SparseTensor) -> Rulebook:
         at = pos.clamp(max=last)
         match = (index.sorted_key[at] == first + j) & (pos <= last)
         hit = match & inside_dh & inside[2][:, j, None]  # a key past a grid edge is another site
-        table[:, :, j] = torch.where(hit, index.order[at], n)
+        table[:, :, j] = torch.where(hit, index.order[at].int(), n)
         pos = pos + match  # the next key sits one row further when this one is active
     return Rulebook(table.reshape(n, 27), n)
 
@@ -194,10 +195,10 @@ def strided_rulebook(x: SparseTensor, kernel=(3, 3, 3), stride=(2, 2, 2), paddin
         dim=1,
     )
     n_offsets = linked.shape[1]
-    forward = torch.full((n_out, n_offsets), n, dtype=torch.int64, device=device)
-    forward[out_row, k] = in_row
-    inverse = torch.full((n, n_offsets), n_out, dtype=torch.int64, device=device)
-    inverse[in_row, k] = out_row
+    forward = torch.full((n_out, n_offsets), n, dtype=torch.int32, device=device)
+    forward[out_row, k] = in_row.int()
+    inverse = torch.full((n, n_offsets), n_out, dtype=torch.int32, device=device)
+    inverse[in_row, k] = out_row.int()
     return out_coords, out_shape, Rulebook(forward, n), Rulebook(inverse, n_out)
 
 
