@@ -98,7 +98,7 @@ def sspi_rows(sensor, depth, refl, weights) -> str:
     for msppp, sbr in CONDITIONS:
         events = simulate_photons(depth, refl, None, msppp, sbr, sensor, np.random.default_rng(0))
         wall, cpu, peak_mb = sspi_frame_cost(events, sensor, weights)
-        target = "yes" if wall <= 2.0 else "no"
+        target = "yes" if cpu <= 2.0 else "no"  # CPU time: the wall time of a loaded machine lies
         rows.append(
             [
                 f"{msppp:g}",
@@ -110,5 +110,5 @@ def sspi_rows(sensor, depth, refl, weights) -> str:
                 target,
             ]
         )
-    header = ["MSPPP", "SBR", "photons", "sspi wall s", "sspi CPU s", "peak MB", "<= 2 s"]
+    header = ["MSPPP", "SBR", "photons", "sspi wall s", "sspi CPU s", "peak MB", "CPU <= 2 s"]
     return "SSPI (single-threaded, CPU), median of 3 runs:\n\n" + markdown_table(header, rows)
