@@ -128,10 +128,9 @@ def submanifold_rulebook(x: SparseTensor) -> Rulebook:
     for axis in range(3):
         moved = x.coords[:, axis, None] + delta[None]  # (N, 3)
         inside.append((moved >= 0) & (moved < x.shape[axis]))
-    d_h_shift = (delta[:, None] * (x.shape[1] * x.shape[2]) + delta[None, :] * x.shape[2]).reshape(
-        -1
-    )
-    first = linear_key(x.coords, x.shape)[:, None] + d_h_shift[None] - 1  # key of (d', h', w - 1)
+    plane = x.shape[1] * x.shape[2]
+    d_h_shift = (delta[:, None] * plane + delta[None, :] * x.shape[2]).reshape(1, 9)
+    first = linear_key(x.coords, x.shape)[:, None] + d_h_shift - 1  # (N, 9) keys of (d', h', w - 1)
     index = SiteIndex(x.coords, x.shape)
     table = torch.full((n, 9, 3), n, dtype=torch.int32, device=device)
     if n == 0:
