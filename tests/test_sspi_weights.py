@@ -101,6 +101,7 @@ def small_scene(rows=12, cols=16):
     return depth
 
 
+@pytest.mark.filterwarnings("ignore:frames such as")
 def test_random_weights_reconstruct_into_the_common_record(fake_weights):
     scene, sensor = small_scene(), SMALL_SENSOR
     ev = simulate_photons(scene, None, None, 2.0, 1.0, sensor, np.random.default_rng(1))
@@ -112,6 +113,7 @@ def test_random_weights_reconstruct_into_the_common_record(fake_weights):
     assert (rec.reflectivity[~rec.valid] == 0).all() and (rec.background >= 0).all()
 
 
+@pytest.mark.filterwarnings("ignore:frames such as")  # recorded below, not re-emitted
 def test_untrained_bin_width_and_frame_warn_once(fake_weights):
     scene = small_scene(8, 10)
     sensor = SensorParams(bin_width_s=1e-9, pulse_sigma_s=1e-9, n_bins=32)
