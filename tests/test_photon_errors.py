@@ -84,7 +84,7 @@ def test_bad_sensor_is_named(kwargs, message):
 def test_reconstruct_and_histogram_refuse_mismatched_input():
     events = simulate()
     with pytest.raises(ValueError, match="method must be one of"):
-        reconstruct(events, (8, 8), SENSOR, method="sspi")
+        reconstruct(events, (8, 8), SENSOR, method="ml")
     with pytest.raises(ValueError, match="does not match the events' frame shape"):
         reconstruct(events, (4, 16), SENSOR)
     short = SensorParams(n_bins=16)

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from spl_al.photon import (
-    METHODS,
+    ML_METHODS,
     SensorParams,
     load_mat,
     reconstruct,
@@ -22,7 +22,7 @@ def error_bins(depth, rec, sensor=SENSOR):
     return np.abs(rec.depth_m - depth) / sensor.bin_depth_m
 
 
-@pytest.mark.parametrize("method", METHODS)
+@pytest.mark.parametrize("method", ML_METHODS)
 def test_noise_free_reconstruction_is_within_half_a_bin(scene, method):
     sensor = SensorParams(bin_width_s=80e-12, pulse_sigma_s=0.0, n_bins=1024)
     ev = simulate_photons(scene, None, None, 50.0, np.inf, sensor, np.random.default_rng(0))
@@ -31,7 +31,7 @@ def test_noise_free_reconstruction_is_within_half_a_bin(scene, method):
     assert np.max(np.abs(rec.depth_m - scene)) <= 0.5 * sensor.bin_depth_m + 1e-12
 
 
-@pytest.mark.parametrize("method", METHODS)
+@pytest.mark.parametrize("method", ML_METHODS)
 def test_error_falls_as_photons_and_sbr_rise(scene, method):
     def median_and_outliers(msppp, sbr, seed):
         ev = simulate_photons(scene, None, None, msppp, sbr, SENSOR, np.random.default_rng(seed))
@@ -66,7 +66,7 @@ def test_high_sbr_error_shrinks_as_one_over_sqrt_n():
         assert residual[sel].std() == pytest.approx(sigma_eff / np.sqrt(n), rel=0.12)
 
 
-@pytest.mark.parametrize("method", METHODS)
+@pytest.mark.parametrize("method", ML_METHODS)
 def test_reflectivity_and_background_estimates(scene, method):
     refl = np.ones(scene.shape)
     refl[:, 32:] = 3.0

@@ -1,4 +1,5 @@
 # Shared names and input functions; rules live in the other .smk files.
+import shlex
 from pathlib import Path
 
 from snakemake.logging import logger
@@ -230,3 +231,9 @@ def labeling_batch(wildcards):
 def labels_before(wildcards):
     r = int(wildcards.round)
     return [] if r == 0 else round_file(wildcards, r - 1, "labels.npz")
+
+
+def sspi_args(flag=""):
+    """Command-line options naming SSPI's weights when config photon.sspi_weights is set."""
+    folder = config["photon"].get("sspi_weights")
+    return f"{flag} --weights {shlex.quote(str(folder))}".strip() if folder else ""

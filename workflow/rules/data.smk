@@ -37,6 +37,7 @@ rule variants_shard:
         runtime=30,
     params:
         variants=lambda w: config["datasets"][w.dataset]["variants"],
+        sspi_weights=config["photon"].get("sspi_weights"),
     script:
         "../scripts/variants_shard.py"
 

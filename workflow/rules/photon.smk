@@ -18,9 +18,10 @@ rule photon_conditions:
     params:
         seed=config["photon"]["demo_seed"],
         method=config["photon"]["reconstruct_method"],
+        sspi=sspi_args(),
     shell:
         "python -m spl_al.photon --demo {output} --seed {params.seed} "
-        "--method {params.method} > {log} 2>&1"
+        "--method {params.method} {params.sspi} > {log} 2>&1"
 
 
 rule photon_real_capture:
@@ -42,5 +43,7 @@ rule photon_real_capture:
     resources:
         mem_mb=1000,
         runtime=5,
+    params:
+        sspi=sspi_args("--sspi"),
     shell:
-        "python -m spl_al.photon --real {input} {output} > {log} 2>&1"
+        "python -m spl_al.photon --real {input} {output} {params.sspi} > {log} 2>&1"

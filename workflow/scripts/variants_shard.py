@@ -8,5 +8,6 @@ with job_log(snakemake.log[0], preload=("spl_al.variants",)):
             snakemake.params.variants,
             int(snakemake.wildcards.shard),
             snakemake.output[0],
+            sspi_weights=snakemake.params.sspi_weights,
         )
     )

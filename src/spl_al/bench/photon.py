@@ -4,11 +4,16 @@ For a 64x64 frame with 1024 bins of 80 ps at three conditions, prints the median
 time to simulate and to reconstruct (each method), the photons per second of the
 simulator, and its speedup over the literal loop transcription of Algorithm 1.
 Run it on one core (the numpy work here is single-threaded anyway).
+
+With SSPI weights (``--sspi-weights`` or ``$SPL_AL_SSPI_WEIGHTS``) a second table
+gives SSPI per frame: median wall and CPU seconds of 3 runs and the peak memory,
+each condition in a fresh process (``spl_al.bench.sspi.sspi_frame_cost``).
 """
 
 from __future__ import annotations
 
 import argparse
+import os
 import platform
 from functools import partial
 
@@ -25,6 +30,7 @@ CONDITIONS = ((2.0, 0.2), (5.0, 1.0), (10.0, 5.0))
 def main(argv: list[str]) -> int:
     parser = argparse.ArgumentParser(prog="python -m spl_al.bench photon")
     parser.add_argument("--repeats", type=int, default=15)
+    parser.add_argument("--sspi-weights", default=os.environ.get("SPL_AL_SSPI_WEIGHTS"))
     args = parser.parse_args(argv)
 
     sensor = SensorParams.tabletop()
@@ -76,4 +82,33 @@ def main(argv: list[str]) -> int:
             rows,
         )
     )
+    if args.sspi_weights:
+        print()
+        print(sspi_rows(sensor, depth, refl, args.sspi_weights))
+    else:
+        print("\nSSPI: skipped (no --sspi-weights / $SPL_AL_SSPI_WEIGHTS).")
     return 0
+
+
+def sspi_rows(sensor, depth, refl, weights) -> str:
+    """SSPI per 64x64x1024 frame at CONDITIONS: wall / CPU seconds and peak memory."""
+    from spl_al.bench.sspi import sspi_frame_cost
+
+    rows = []
+    for msppp, sbr in CONDITIONS:
+        events = simulate_photons(depth, refl, None, msppp, sbr, sensor, np.random.default_rng(0))
+        wall, cpu, peak_mb = sspi_frame_cost(events, sensor, weights)
+        target = "yes" if cpu <= 2.0 else "no"  # CPU time: the wall time of a loaded machine lies
+        rows.append(
+            [
+                f"{msppp:g}",
+                f"{sbr:g}",
+                f"{len(events):,}",
+                f"{wall:.2f}",
+                f"{cpu:.2f}",
+                f"{peak_mb:.0f}",
+                target,
+            ]
+        )
+    header = ["MSPPP", "SBR", "photons", "sspi wall s", "sspi CPU s", "peak MB", "CPU <= 2 s"]
+    return "SSPI (single-threaded, CPU), median of 3 runs:\n\n" + markdown_table(header, rows)

@@ -103,15 +103,34 @@ def _unlabeled_dataset(entry: dict, synthesis: dict):
     return dataset
 
 
-def make_variant_shard(observed_path, variants: dict, shard: int, out_path) -> dict:
-    """SIV variants of one shard of the observed images (shards can run anywhere)."""
+def make_variant_shard(
+    observed_path, variants: dict, shard: int, out_path, sspi_weights=None
+) -> dict:
+    """SIV variants of one shard of the observed images (shards can run anywhere).
+
+    ``variants.reconstruct_method`` picks the reconstruction of the variants (default:
+    the dataset's own). With ``"sspi"`` the weights folder is ``sspi_weights`` (config
+    ``photon.sspi_weights``) or ``$SPL_AL_SSPI_WEIGHTS``; it is exported to that
+    variable so worker processes find it, and the expected time of the shard
+    (one timed frame x the shard's variants) is printed first, into the job log.
+    """
     from spl_al.data import Dataset
     from spl_al.photon import SensorParams
-    from spl_al.variants import generate_variants
+    from spl_al.variants import generate_variants, shard_indices
 
     dataset = Dataset.load(observed_path)
     sensor = getattr(SensorParams, variants["sensor"])() if variants.get("sensor") else None
     conditions = [tuple(c) for c in variants["conditions"]] if variants.get("conditions") else None
+    method = variants.get("reconstruct_method")
+    if method == "sspi":
+        _announce_sspi_shard(
+            dataset,
+            sensor or dataset.sensor,
+            conditions,
+            len(shard_indices(len(dataset), (int(shard), int(variants["shards"]))))
+            * int(variants["n"]),
+            sspi_weights,
+        )
     part = generate_variants(
         dataset,
         n_variants=int(variants["n"]),
@@ -120,9 +139,46 @@ def make_variant_shard(observed_path, variants: dict, shard: int, out_path) -> d
         shard=(int(shard), int(variants["shards"])),
         workers=1,
         sensor=sensor,
+        method=method,
     )
     part.save(out_path)
     return {"shard": shard}
+
+
+def _announce_sspi_shard(dataset, sensor, conditions, n_frames: int, sspi_weights) -> None:
+    """Export the SSPI weights folder and print the shard's expected time: one frame (sample 0,
+    the condition of median photon budget) timed, times the shard's variants. Variants are
+    reconstructed on their returns' bounding box, so small objects take less."""
+    import os
+
+    from spl_al.photon.sspi.weights import ENV_VAR, weights_folder
+    from spl_al.variants import default_conditions, variants_of_image
+
+    os.environ[ENV_VAR] = str(weights_folder(sspi_weights).resolve())
+    if n_frames == 0:
+        return
+    # The condition with the median photon budget msppp (1 + 1 / sbr): a typical frame.
+    candidates = sorted(
+        conditions or default_conditions(dataset), key=lambda c: c[0] * (1 + 1 / c[1])
+    )
+    condition = candidates[len(candidates) // 2]
+    refl = None if dataset.reflectance is None else dataset.reflectance[0]
+
+    def one_frame():
+        rng = np.random.default_rng(0)
+        variants_of_image(dataset.depth_m[0], refl, [condition], 1, sensor, rng, "sspi")
+
+    one_frame()  # loads the weights once
+    start = time.perf_counter()
+    one_frame()
+    per_frame = time.perf_counter() - start
+    rows, cols = dataset.image_shape
+    print(
+        f"SSPI: {per_frame:.2f} s per {rows}x{cols}x{sensor.n_bins} frame (sample 0 at "
+        f"MSPPP {condition[0]:g}, SBR {condition[1]:g}); this shard reconstructs {n_frames} "
+        f"variants: expected about {per_frame * n_frames / 60:.1f} min",
+        flush=True,
+    )
 
 
 def merge_variants(observed_path, shard_paths, out_path) -> dict:

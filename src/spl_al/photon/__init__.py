@@ -5,7 +5,8 @@ Public API:
 - ``SensorParams``: bin width, pulse sigma, number of bins (and presets).
 - ``simulate_photons``: the measurement model of Algorithm 1 as sparse events.
 - ``histogram``: the dense (rows, cols, T) count cube of some events.
-- ``reconstruct``: ML depth / reflectivity / background from events.
+- ``reconstruct``: depth / reflectivity / background from events (ML, or SSPI
+  with the published weights, ``spl_al.photon.sspi``).
 - ``synthesize_variant``: Algorithm 1 end to end (simulate, then reconstruct).
 - ``load_mat``: import a real capture stored as a sparse pixels x bins matrix.
 """
@@ -13,13 +14,14 @@ Public API:
 from spl_al.photon.events import PhotonEvents, histogram
 from spl_al.photon.io import load_mat
 from spl_al.photon.observation import ObservationModel, observe_photons
-from spl_al.photon.reconstruct import METHODS, Reconstruction, reconstruct
+from spl_al.photon.reconstruct import METHODS, ML_METHODS, Reconstruction, reconstruct
 from spl_al.photon.sensor import SPEED_OF_LIGHT_M_PER_S, SensorParams
 from spl_al.photon.simulate import simulate_photons
 from spl_al.photon.variant import synthesize_variant
 
 __all__ = [
     "METHODS",
+    "ML_METHODS",
     "SPEED_OF_LIGHT_M_PER_S",
     "ObservationModel",
     "PhotonEvents",

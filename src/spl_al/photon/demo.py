@@ -46,7 +46,7 @@ def _imshow_depth(ax, depth, vmin, vmax, title):
 
 
 def render_condition_grid(
-    path, sensor: SensorParams | None = None, seed: int = 0, method: str = "pooled"
+    path, sensor: SensorParams | None = None, seed: int = 0, method: str = "pooled", weights=None
 ):
     """Write a PNG: clean depth and one pixel's histogram, then the reconstructed depth
     for every (msppp, sbr) in DEMO_MSPPP x DEMO_SBR. Voids are black."""
@@ -68,7 +68,7 @@ def render_condition_grid(
     for i, msppp in enumerate(DEMO_MSPPP):
         for j, sbr in enumerate(DEMO_SBR):
             ev = simulate_photons(depth, refl, None, msppp, sbr, sensor, rng)
-            rec = reconstruct(ev, depth.shape, sensor, method=method)
+            rec = reconstruct(ev, depth.shape, sensor, method=method, weights=weights)
             voids = 100 * np.mean(~rec.valid)
             err_cm = 100 * np.nanmedian(np.abs(rec.depth_m - depth))
             _imshow_depth(
@@ -96,14 +96,44 @@ def render_condition_grid(
     _save(fig, path)
 
 
-def render_real_capture(events: PhotonEvents, sensor: SensorParams, path, title: str = ""):
-    """Write a PNG of a real capture: summed histogram, photon counts, and depth by each method."""
+def depth_agreement(depth_a_m: np.ndarray, depth_b_m: np.ndarray) -> dict:
+    """How two depth images agree on the pixels both reconstruct (finite in both).
+
+    Returns n_both, median_abs_m = median |a - b|, and within_10cm / within_30cm,
+    the fractions of those pixels with |a - b| <= 0.1 m / 0.3 m.
+    """
+    both = np.isfinite(depth_a_m) & np.isfinite(depth_b_m)
+    diff = np.abs(depth_a_m - depth_b_m)[both]
+    if diff.size == 0:
+        return {"n_both": 0, "median_abs_m": np.nan, "within_10cm": np.nan, "within_30cm": np.nan}
+    return {
+        "n_both": int(diff.size),
+        "median_abs_m": float(np.median(diff)),
+        "within_10cm": float(np.mean(diff <= 0.1)),
+        "within_30cm": float(np.mean(diff <= 0.3)),
+    }
+
+
+def render_real_capture(
+    events: PhotonEvents,
+    sensor: SensorParams,
+    path,
+    title: str = "",
+    methods=("lmf", "pooled"),
+    weights=None,
+):
+    """Write a PNG of a real capture: summed histogram, photon counts, and depth by each
+    of ``methods`` (``"sspi"`` needs ``weights``, see ``spl_al.photon.sspi``).
+
+    Returns {method: Reconstruction}; with both ``"sspi"`` and ``"pooled"`` the SSPI
+    panel's title carries their ``depth_agreement``.
+    """
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    fig, axes = plt.subplots(1, 4, figsize=(14, 3.4))
+    fig, axes = plt.subplots(1, 2 + len(methods), figsize=(3.5 * (2 + len(methods)), 3.4))
     summed = np.bincount(events.bin, minlength=sensor.n_bins)
     axes[0].plot(sensor.bin_to_depth(np.arange(sensor.n_bins)), summed, lw=0.6)
     axes[0].set_xlabel("depth (m)")
@@ -112,14 +142,24 @@ def render_real_capture(events: PhotonEvents, sensor: SensorParams, path, title:
     im = axes[1].imshow(events.counts(), cmap="magma")
     axes[1].set_title("photons per pixel", fontsize=9)
     fig.colorbar(im, ax=axes[1], fraction=0.046)
-    for ax, method in zip(axes[2:], ("lmf", "pooled"), strict=True):
-        rec = reconstruct(events, events.shape, sensor, method=method)
-        lo, hi = np.nanpercentile(rec.depth_m, [2, 98])
-        _imshow_depth(ax, rec.depth_m, lo, hi, f"depth, {method} (m)")
+    recs = {
+        m: reconstruct(events, events.shape, sensor, method=m, weights=weights) for m in methods
+    }
+    lo, hi = np.nanpercentile(recs[methods[-1]].depth_m, [2, 98])
+    for ax, method in zip(axes[2:], methods, strict=True):
+        label = f"depth, {method} (m)"
+        if method == "sspi" and "pooled" in recs:
+            a = depth_agreement(recs["sspi"].depth_m, recs["pooled"].depth_m)
+            label += (
+                f"\nvs pooled: median |diff| {100 * a['median_abs_m']:.1f} cm, "
+                f"{100 * a['within_10cm']:.0f}% <= 10 cm"
+            )
+        _imshow_depth(ax, recs[method].depth_m, lo, hi, label)
         fig.colorbar(ax.images[0], ax=ax, fraction=0.046)
     fig.suptitle(title, fontsize=10)
     fig.tight_layout()
     _save(fig, path)
+    return recs
 
 
 def _save(fig, path):

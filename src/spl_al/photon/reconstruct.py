@@ -1,9 +1,9 @@
 """Depth, reflectivity and background from photon events (docs/method.md section 1).
 
 The paper turns photons back into depth with SSPI (Yao et al. 2022), a learned
-sparse 3-D U-Net over the histogram cube. Its trained weights are not available
-here, so spl-al reconstructs with maximum likelihood under the measurement model
-instead:
+sparse 3-D U-Net over the histogram cube. ``"sspi"`` runs it (``spl_al.photon.sspi``,
+plain PyTorch) when given the authors' published weights; without weights spl-al
+reconstructs with maximum likelihood under the measurement model:
 
 - ``"lmf"``: per-pixel log-matched filter. Each pixel's photons are scored under a
   Gaussian IRF plus a uniform background, the ML time bin is taken among the
@@ -30,7 +30,8 @@ import numpy as np
 from spl_al.photon.events import PhotonEvents
 from spl_al.photon.sensor import SensorParams
 
-METHODS = ("pooled", "lmf")
+ML_METHODS = ("pooled", "lmf")  # maximum likelihood: no weights needed
+METHODS = (*ML_METHODS, "sspi")
 _EM_STEPS = 3
 _OWN_MARGIN_PHOTONS = 1.5  # at least: own evidence must beat the neighbourhood by this many photons
 
@@ -294,24 +295,31 @@ def reconstruct(
     sensor: SensorParams,
     method: str = "pooled",
     censor: bool = False,
+    weights=None,
+    device=None,
 ) -> Reconstruction:
     """Recover depth, reflectivity and background per pixel from photon events.
 
     Maximises the Poisson log-likelihood of docs/method.md section 1 with a Gaussian IRF
     (sigma from ``sensor``) and a uniform background; see the module docstring for
-    what ``"lmf"`` and ``"pooled"`` do and why SSPI is not used.
+    what ``"lmf"`` and ``"pooled"`` do; ``"sspi"`` is the paper's learned network
+    (``spl_al.photon.sspi.reconstruct_sspi``).
 
     Args:
         events: the photons of one frame (``is_signal`` is not read).
         shape: (rows, cols) of the frame.
         sensor: the timing the events were recorded with.
-        method: ``"pooled"`` (default) or ``"lmf"``.
-        censor: make a pixel a void when the photons of its 3x3 window near its depth
-            are no more than background coincidences reach in 5% of frames
-            (``_significant_cluster`` with the window's background). Pixels without a
-            return (sky, beyond range) that only background photons reached then stay
-            voids instead of taking a random depth: the ML counterpart of the background
-            classification of learned denoisers such as SSPI.
+        method: ``"pooled"`` (default), ``"lmf"`` or ``"sspi"``.
+        weights: ``"sspi"`` only: folder holding ssunet1.pth and ssunet2.pth
+            (default ``$SPL_AL_SSPI_WEIGHTS``); without them one ValueError says
+            where to get them.
+        device: ``"sspi"`` only: torch device (default CUDA when available, else CPU).
+        censor: ML methods only (SSPI has its own denoiser): make a pixel a void when
+            the photons of its 3x3 window near its depth are no more than background
+            coincidences reach in 5% of frames (``_significant_cluster`` with the
+            window's background). Pixels without a return (sky, beyond range) that only
+            background photons reached then stay voids instead of taking a random depth:
+            the ML counterpart of the background classification of SSPI's denoiser.
 
     Returns:
         Reconstruction(depth_m, reflectivity, background, counts, valid), each (rows, cols).
@@ -326,6 +334,10 @@ def reconstruct(
             f"events hold time bins outside 0..{sensor.t_max}; "
             "pass the sensor they were recorded with."
         )
+    if method == "sspi":
+        from spl_al.photon.sspi import reconstruct_sspi
+
+        return reconstruct_sspi(events, (rows, cols), sensor, weights=weights, device=device)
     n_pixels = rows * cols
     background_fraction = _background_fraction(events.bin, sensor.n_bins)
     # kappa = signal / (background per bin) of a pixel, from the frame's split.
