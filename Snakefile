@@ -27,6 +27,7 @@ include: "workflow/rules/photon.smk"
 include: "workflow/rules/data.smk"
 include: "workflow/rules/al.smk"
 include: "workflow/rules/report.smk"
+include: "workflow/rules/robustness.smk"
 
 
 rule all:
