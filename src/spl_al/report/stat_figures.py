@@ -55,10 +55,12 @@ def aubc_figure(df: pd.DataFrame, methods: Sequence[str] | None = None, dataset=
     n = int(areas["seed"].nunique()) if not areas.empty else 0
     metric = _metric_name(d["metric"].iloc[0])
     standin = ", synthetic stand-in" if bool(d["synthetic_standin"].any()) else ""
-    ax.set_title(f"{d['dataset'].iloc[0]}{standin}: area under the budget curve", fontsize=11)
-    ax.set_xlabel(
-        f"AUBC, mean {metric} (%) over the budget range: mean and 95% t-interval, n = {n} seeds"
+    ax.set_title(
+        f"{d['dataset'].iloc[0]}{standin}: area under the budget curve\n"
+        f"mean and 95% t-interval over n = {n} seeds; small dots: single seeds",
+        fontsize=10,
     )
+    ax.set_xlabel(f"AUBC: mean {metric} (%) over the labeling-ratio range")
     ax.grid(axis="x", alpha=0.3)
     return fig
 
