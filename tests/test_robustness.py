@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import numpy as np
 import pandas as pd
 import pytest
@@ -128,3 +130,20 @@ def test_difference_table_marks_resolved_cells():
     assert not diff.loc[5, "spans_zero"] and diff.loc[5, "resolved"]
     assert diff.loc[1, "spans_zero"] and not diff.loc[1, "resolved"]
     assert diff.loc[5, "diff"] == pytest.approx(20.2)
+
+
+def test_config_schema_checks_the_grid_keys():
+    import yaml
+
+    from spl_al.config import check_config
+
+    root = Path(__file__).resolve().parents[1]
+    config = yaml.safe_load((root / "config/config.yaml").read_text())
+    check_config(config, root / "config/schema.yaml")
+    config["robustness"]["sbr"] = [0.05, 0]
+    with pytest.raises(ValueError, match=r"config key 'robustness\.sbr\.1': 0 is less than or"):
+        check_config(config, root / "config/schema.yaml")
+    config["robustness"]["sbr"] = [1]
+    config["datasets"]["real_cls"]["robustness"] = {"grid": 3}
+    with pytest.raises(ValueError, match="'grid' was unexpected"):
+        check_config(config, root / "config/schema.yaml")

@@ -259,6 +259,8 @@ def _ncand_claim(cmp: pd.DataFrame) -> dict | None:
             for a, b in itertools.pairwise(values)
         ]
     )
+    if ends.empty:
+        return None
     end = ends.iloc[0]
     fell = (steps["ci_high"] < -MARGIN_PP) & steps["resolved"]
     step_down = (steps["direction"] < 0) & steps["resolved"]
