@@ -82,9 +82,8 @@ def grid_samples(dataset, test_samples: int | None) -> np.ndarray:
 
 def reimage(dataset, idx: np.ndarray, msppp: float, sbr: float, seed: int):
     """The samples ``idx`` imaged at (msppp, sbr): (depth (n, H, W) float32, source)."""
-    from spl_al.data.observe import observe
+    from spl_al.data.observe import image_through_photons, observe
     from spl_al.data.seeds import STREAM_VARIANT, sample_rng
-    from spl_al.variants import variants_of_image
 
     n = idx.size
     if dataset.clean_depth_m is not None:
@@ -99,13 +98,20 @@ def reimage(dataset, idx: np.ndarray, msppp: float, sbr: float, seed: int):
             uid=dataset.uid[idx],
         )
         return depth, "clean"
-    out = np.empty((n, *dataset.image_shape), np.float32)
+    # SIV (Algorithm 1) of each observed image at (msppp, sbr), as spl_al.variants does:
+    # its reconstructed depth and reflectivity through the photon engine again.
+    out = np.full((n, *dataset.image_shape), np.nan, np.float32)
     for k, i in enumerate(idx):
-        rng = sample_rng(seed, STREAM_VARIANT, int(dataset.uid[i]))
+        valid = np.isfinite(dataset.depth_m[i])
+        if not valid.any():
+            continue
         refl = None if dataset.reflectance is None else dataset.reflectance[i]
-        out[k] = variants_of_image(
-            dataset.depth_m[i], refl, [(msppp, sbr)], 1, dataset.sensor, rng
-        )[0][0]
+        if refl is not None:
+            refl = np.where(valid, refl, 0.0) if (refl[valid] > 0).any() else None
+        rng = sample_rng(seed, STREAM_VARIANT, int(dataset.uid[i]))
+        out[k] = image_through_photons(
+            dataset.depth_m[i], refl, valid, msppp, sbr, dataset.sensor, rng
+        )[0]
     return out, "siv"
 
 

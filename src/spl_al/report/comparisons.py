@@ -56,6 +56,7 @@ def _values(d: pd.DataFrame, methods, round_: int, value_col: str = "value") -> 
 
 
 def _rows(values: pd.DataFrame, methods, **fields) -> list[dict]:
+    values = values.dropna(subset=["value"])  # e.g. images without MSPPP levels
     present = [m for m in methods if m in set(values["method"])]
     if len(present) < 2:
         return []
