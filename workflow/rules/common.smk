@@ -48,9 +48,11 @@ def n_shards(dataset):
 
 
 def dataset_params(dataset):
-    """The dataset's config entry without its experiments: what its data depend on."""
+    """The dataset's config entry without its experiments and robustness grid: what its
+    data depend on."""
     entry = dict(config["datasets"][dataset])
     entry.pop("experiments", None)
+    entry.pop("robustness", None)
     return entry
 
 
