@@ -28,6 +28,7 @@ include: "workflow/rules/data.smk"
 include: "workflow/rules/al.smk"
 include: "workflow/rules/human.smk"
 include: "workflow/rules/report.smk"
+include: "workflow/rules/robustness.smk"
 
 
 rule all:

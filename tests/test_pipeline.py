@@ -104,6 +104,46 @@ def test_every_table_has_its_rows_columns_and_ranges(ci_results):
         assert (figures / "curves.pdf").read_bytes()[:4] == b"%PDF"
 
 
+def test_paired_statistics_claims_and_robustness_map(ci_results):
+    cls = ci_results / "real_cls" / "tables"
+    cmp = pd.read_csv(cls / "comparisons.csv")
+    assert set(cmp["experiment"]) == {"budget", "levels", "ablation", "sensitivity"}
+    budget = cmp[cmp["experiment"] == "budget"]
+    # 6 methods: 15 pairs at each of 2 rounds and for the AUBC
+    assert len(budget) == 15 * 3 and (budget["point"] == "AUBC").sum() == 15
+    assert cmp["n"].between(1, 2).all() and cmp["p_value"].between(0, 1).all()
+    paired = cmp[cmp["n"] == 2]  # sensitivity runs one seed: no interval there
+    assert (paired["ci_low"] <= paired["diff"]).all() and (
+        paired["diff"] <= paired["ci_high"]
+    ).all()
+    assert cmp.loc[cmp["n"] == 1, "ci_low"].isna().all()
+    assert not cmp["resolved"].any()  # at most two seeds: nothing can be resolved
+    claims = pd.read_csv(cls / "claims.csv")
+    assert {"duis_best_every_budget", "diversity_helps", "m_gt_1_beats_m_1"} <= set(
+        claims["claim_id"]
+    )
+    assert (claims["verdict"] == "inconclusive").all()
+    assert claims["reason"].str.contains("too few seeds").all()
+    assert "inconclusive" in (cls / "claims.md").read_text()
+    aubc = json.loads((cls / "summary.json").read_text())["methods"]["duis"]["aubc"]
+    assert aubc["n"] == 2 and aubc["ci_low"] <= aubc["mean"] <= aubc["ci_high"]
+    assert "n = 2 seeds per cell" in (cls / "budget.md").read_text()
+
+    for dataset, methods in (("real_cls", CLS_METHODS), ("street_seg", ["random", "duis"])):
+        tables = ci_results / dataset / "tables"
+        rob = pd.read_csv(tables / "robustness.csv")
+        assert sorted(rob["method"].unique()) == sorted(methods)
+        assert len(rob) == len(methods) * 4  # ci grid: MSPPP 1, 5 x SBR 0.1, 1
+        assert rob["mean"].between(0, 100).all() and (rob["n_seeds"] == 2).all()
+        assert set(rob["source"]) == {"clean"}
+        diff = pd.read_csv(tables / "robustness_diff.csv")
+        assert len(diff) == 4 and (diff["method"] == "duis").all()
+        assert diff["diff"].abs().le(100).all() and diff["spans_zero"].dtype == bool
+        figures = ci_results / dataset / "figures"
+        for name in ("aubc.png", "robustness.png", "robustness_diff.png"):
+            assert (figures / name).read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+
+
 def test_labeled_sets_grow_by_the_batch_without_repeats(ci_results):
     sets = labeled_sets(ci_results, "real_cls")
     for seed in (1, 2):

@@ -178,9 +178,20 @@ def test_bold_marks_best_per_column(df):
     assert r"Entropy & \textbf{52.0 $\pm$ 2.0} & 57.0 $\pm$ 2.0" in tex
 
 
-def test_bold_ties_at_printed_precision():
+def test_unresolved_leader_gets_a_dagger_not_bold():
+    # Two seeds: too few for any paired difference to be resolved, however consistent.
     values = {"random": ((0.500, 0.500),), "duis": ((0.5004, 0.5004),)}
     t = budget_table(records_frame(make_records(values)))
+    assert t["mark"].tolist() == ["", "tie"]
+    md = render_markdown(t)
+    assert "**50.0" not in md and "| DUIS | 50.0 ± 0.0 † |" in md
+    assert "†: the highest mean (every one, when several are equal), not resolved" in md
+    assert r"50.0 $\pm$ 0.0$^\dagger$" in render_latex(t)
+
+
+def test_frame_without_marks_bolds_the_best_printed_mean():
+    values = {"random": ((0.500, 0.500),), "duis": ((0.5004, 0.5004),)}
+    t = budget_table(records_frame(make_records(values))).drop(columns="mark")
     assert render_markdown(t).count("**50.0 ± 0.0**") == 2
 
 

@@ -62,9 +62,11 @@ def n_shards(dataset):
 
 
 def dataset_params(dataset):
-    """The dataset's config entry without its experiments: what its data depend on."""
+    """The dataset's config entry without its experiments and robustness grid: what its
+    data depend on."""
     entry = dict(config["datasets"][dataset])
     entry.pop("experiments", None)
+    entry.pop("robustness", None)
     return entry
 
 
@@ -176,6 +178,14 @@ def dataset_outputs(dataset):
         out += [f"{figures}/curves.{ext}" for ext in ("png", "pdf")]
         if has_levels(dataset):
             out += [f"{figures}/level_curves.{ext}" for ext in ("png", "pdf")]
+        out += [f"{figures}/aubc.{ext}" for ext in ("png", "pdf")]
+    if dataset_tables(dataset):
+        out += [
+            f"{tables}/{name}.{ext}"
+            for name in ("comparisons", "claims")
+            for ext in ("csv", "md")
+        ]
+    out += robustness_outputs(dataset)
     return out
 
 
@@ -237,3 +247,59 @@ def sspi_args(flag=""):
     """Command-line options naming SSPI's weights when config photon.sspi_weights is set."""
     folder = config["photon"].get("sspi_weights")
     return f"{flag} --weights {shlex.quote(str(folder))}".strip() if folder else ""
+
+
+# Condition robustness map (workflow/rules/robustness.smk).
+
+
+def robustness_grid(dataset):
+    """The dataset's grid settings: the top-level `robustness` entry updated by the
+    dataset's own; None when off (no grid, no budget experiment, or enabled: false)."""
+    entry = config["datasets"][dataset]
+    merged = {
+        "shards": 1,
+        "seed": 0,
+        "test_samples": None,
+        **(config.get("robustness") or {}),
+        **(entry.get("robustness") or {}),
+    }
+    if not merged.pop("enabled", True) or "budget" not in entry.get("experiments", {}):
+        return None
+    return merged if merged.get("msppp") and merged.get("sbr") else None
+
+
+def robustness_shards(wildcards):
+    grid = robustness_grid(wildcards.dataset)
+    return expand(
+        f"{RESULTS}/{wildcards.dataset}/robustness/grid/shard{{i}}.npz",
+        i=range(int(grid["shards"])),
+    )
+
+
+def robustness_evals(wildcards):
+    budget = config["datasets"][wildcards.dataset]["experiments"]["budget"]
+    return expand(
+        f"{RESULTS}/{wildcards.dataset}/robustness/{{method}}/seed{{seed}}.json",
+        method=budget["methods"],
+        seed=budget["seeds"],
+    )
+
+
+def final_model(wildcards):
+    """The budget experiment's last round's model of this method and seed."""
+    last = (
+        int(config["datasets"][wildcards.dataset]["experiments"]["budget"]["rounds"])
+        - 1
+    )
+    return f"{RESULTS}/{wildcards.dataset}/{wildcards.method}/seed{wildcards.seed}/round{last}/model.pt"
+
+
+def robustness_outputs(dataset):
+    if robustness_grid(dataset) is None:
+        return []
+    return [
+        f"{RESULTS}/{dataset}/tables/robustness.csv",
+        f"{RESULTS}/{dataset}/tables/robustness_diff.csv",
+        f"{RESULTS}/{dataset}/figures/robustness.png",
+        f"{RESULTS}/{dataset}/figures/robustness_diff.png",
+    ]

@@ -128,3 +128,47 @@ rule run_config:
         config=config,
     script:
         "../scripts/run_config.py"
+
+
+rule stats:
+    input:
+        metrics=lambda w: metrics_files(w.dataset),
+    output:
+        comparisons_csv=report(
+            f"{RESULTS}/{{dataset}}/tables/comparisons.csv",
+            caption="../report/comparisons.rst",
+            category="{dataset}",
+            subcategory="Statistics",
+        ),
+        comparisons_md=f"{RESULTS}/{{dataset}}/tables/comparisons.md",
+        claims_csv=report(
+            f"{RESULTS}/{{dataset}}/tables/claims.csv",
+            caption="../report/claims.rst",
+            category="{dataset}",
+            subcategory="Statistics",
+        ),
+        claims_md=f"{RESULTS}/{{dataset}}/tables/claims.md",
+        aubc_png=report(
+            f"{RESULTS}/{{dataset}}/figures/aubc.png",
+            caption="../report/aubc.rst",
+            category="{dataset}",
+            subcategory="Statistics",
+        ),
+        aubc_pdf=f"{RESULTS}/{{dataset}}/figures/aubc.pdf",
+    log:
+        f"{RESULTS}/logs/{{dataset}}/stats.log",
+    benchmark:
+        f"{RESULTS}/benchmarks/{{dataset}}/stats.tsv"
+    conda:
+        "../envs/spl-al.yaml"
+    threads: 1
+    resources:
+        mem_mb=2000,
+        runtime=10,
+    params:
+        experiments=lambda w: config["datasets"][w.dataset]["experiments"],
+        sweeps=lambda w: sweep_table_spec(
+            config, config["datasets"][w.dataset]["variants"]["n"]
+        ),
+    script:
+        "../scripts/stats.py"

@@ -182,14 +182,27 @@ def observe_image(
     return rec.depth_m.astype(np.float32), rec.reflectivity.astype(np.float32)
 
 
-def _observe_chunk(depth, reflectance, msppp, sbr, uid, sensor, seed, method):
+def _observe_chunk(depth, reflectance, msppp, sbr, uid, sensor, seed, method, model, compensated):
     out_d = np.empty(depth.shape, np.float32)
     out_r = np.empty(depth.shape, np.float32)
     for k in range(len(depth)):
         rng = sample_rng(seed, STREAM_OBSERVE, uid[k])
         refl = None if reflectance is None else reflectance[k]
-        out_d[k], out_r[k] = observe_image(depth[k], refl, msppp[k], sbr[k], sensor, rng, method)
+        out_d[k], out_r[k] = observe_image(
+            depth[k], refl, msppp[k], sbr[k], sensor, rng, method, model, compensated
+        )
     return out_d, out_r
+
+
+def observation_of(dataset) -> tuple[ObservationModel | None, bool]:
+    """The sensor model a synthetic dataset's observed images were made with (None:
+    Algorithm 1, as before the model existed) and whether its scene reflectance is
+    range-compensated (street scenes)."""
+    params = dataset.meta.get("observation")
+    model = None if params is None else ObservationModel.from_dict(params)
+    if model is not None and model.is_algorithm1:
+        model = None
+    return model, dataset.meta.get("generator") == "spl_al.scenes.street"
 
 
 def observe(
@@ -202,6 +215,8 @@ def observe(
     uid: np.ndarray | None = None,
     method: str = "pooled",
     workers: int | None = 1,
+    model: ObservationModel | None = None,
+    range_compensated: bool = False,
 ) -> tuple[np.ndarray, np.ndarray]:
     """Observed images of N clean depth images, each at its own (msppp, sbr).
 
@@ -213,6 +228,8 @@ def observe(
         reflectance: (N, H, W) scene reflectance, or None for uniform.
         msppp, sbr: (N,) condition of each sample.
         uid: (N,) sample ids (default 0..N-1).
+        model, range_compensated: the sensor model (``observe_image``; None:
+            Algorithm 1) and whether the reflectance lacks range falloff.
     Returns:
         depth (N, H, W) float32 NaN at voids, reflectivity (N, H, W) float32.
     """
@@ -232,6 +249,8 @@ def observe(
             sensor,
             seed,
             method,
+            model,
+            range_compensated,
         )
         for c in chunks
     ]

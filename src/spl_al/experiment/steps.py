@@ -493,3 +493,33 @@ def make_summary(metrics_paths, out_path, notes=()) -> dict:
     result["notes"] = [str(n) for n in notes]
     write_json(result, out_path)
     return result
+
+
+def make_stats(metrics_paths, experiments: dict, sweeps: dict, out: dict) -> None:
+    """Paired statistics of a dataset: ``comparisons`` and ``claims`` (CSV + Markdown)
+    and the AUBC chart. ``out``: paths by name (comparisons_csv, comparisons_md,
+    claims_csv, claims_md, aubc_png, aubc_pdf). Claims are judged on the comparisons
+    as written, so the two files cannot disagree."""
+    import pandas as pd
+
+    from spl_al import report
+    from spl_al.atomic import atomic_write_text
+    from spl_al.report.claims import claims, render_claims_markdown
+    from spl_al.report.comparisons import comparisons, render_comparisons_markdown
+    from spl_al.report.stat_figures import aubc_figure
+
+    df = report.load_records(metrics_paths)
+    renamed = {("m" if p == "n_variants" else p): v for p, v in sweeps.items()}
+    frame = comparisons(df, experiments, renamed)
+    atomic_write(out["comparisons_csv"], lambda tmp: frame.to_csv(tmp, index=False))
+    stored = pd.read_csv(out["comparisons_csv"])
+    atomic_write_text(out["comparisons_md"], render_comparisons_markdown(stored))
+    verdicts = claims(stored)
+    atomic_write(out["claims_csv"], lambda tmp: verdicts.to_csv(tmp, index=False))
+    name = str(df["dataset"].iloc[0])
+    atomic_write_text(out["claims_md"], render_claims_markdown(verdicts, dataset=name))
+    methods = experiments.get("budget", {}).get("methods")
+    budget = df if methods is None else df[df["method"].isin(methods)]
+    if "budget" in experiments:
+        budget = budget[budget["round"] < int(experiments["budget"]["rounds"])]
+    report.save_figure(aubc_figure(budget, methods), out["aubc_png"], out["aubc_pdf"])

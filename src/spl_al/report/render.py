@@ -3,9 +3,11 @@
 The renderers read only the frame's columns (see ``spl_al.report.tables``), so a table
 read back from its CSV renders to the same text. Cells are "mean ± std" with
 ``decimals`` places; a cell averaged over fewer seeds than the table's others shows
-"(n=k)"; an empty cell is a dash. The best mean is in bold: per column for method
-tables, per parameter (row) for the sensitivity table. Means are compared as printed,
-so values that print alike are bold together.
+"(n=k)"; an empty cell is a dash. Per column of a method table (per parameter of the
+sensitivity table) the highest mean is bold when the table's ``mark`` column says its
+paired difference to the runner-up is resolved (``spl_al.report.stats``) and carries a
+dagger when it is not (a tie at this number of seeds). A frame without ``mark`` (an
+older CSV) bolds the best printed mean, values that print alike together.
 """
 
 from __future__ import annotations
@@ -32,6 +34,7 @@ _LATEX_SPECIALS = {
     "±": r"$\pm$",
     "α": r"$\alpha$",
     "—": "--",
+    "†": r"$^\dagger$",
 }
 _LATEX_RE = re.compile("|".join(re.escape(c) for c in _LATEX_SPECIALS))
 
@@ -68,13 +71,21 @@ def _has_value(cell) -> bool:
     return cell is not None and int(cell["n_seeds"]) > 0 and np.isfinite(cell["mean"])
 
 
-def _best(cells: list, decimals: int) -> set[int]:
-    """Indices of the best (highest printed mean) cells, when at least two have a value."""
+def _best(cells: list, decimals: int) -> tuple[set[int], set[int]]:
+    """Indices of the bold cells and of the tied leaders (dagger) among ``cells``.
+
+    From the ``mark`` column when the frame has one; otherwise the highest printed
+    mean is bold, when at least two cells have a value.
+    """
+    if any(c is not None and "mark" in c.index for c in cells):
+        bold = {i for i, c in enumerate(cells) if c is not None and c.get("mark") == "bold"}
+        tie = {i for i, c in enumerate(cells) if c is not None and c.get("mark") == "tie"}
+        return bold, tie
     valued = [(i, round(float(c["mean"]), decimals)) for i, c in enumerate(cells) if _has_value(c)]
     if len(valued) < 2:
-        return set()
+        return set(), set()
     top = max(v for _, v in valued)
-    return {i for i, v in valued if v == top}
+    return {i for i, v in valued if v == top}, set()
 
 
 def _cell_text(cell, decimals: int, pm: str, dash: str) -> str:
@@ -126,7 +137,21 @@ def table_notes(frame: pd.DataFrame) -> list[str]:
     """Notes under a table: partial cells and the synthetic stand-in flag."""
     notes = []
     per = "per parameter" if _is_blocks(frame) else "per column"
-    notes.append(f"Best mean {per} in bold.")
+    if "mark" not in frame.columns:
+        notes.append(f"Best mean {per} in bold.")
+    else:
+        from spl_al.report.stats import rule_text
+
+        marks = frame["mark"].astype(object).fillna("")
+        notes.append(
+            f"n = {int(frame['n_expected'].iloc[0])} seeds per cell. Bold: the highest mean "
+            f"{per}, resolved from the runner-up ({rule_text()})."
+        )
+        if (marks == "tie").any():
+            notes.append(
+                "†: the highest mean (every one, when several are equal), not resolved "
+                "from the runner-up: a tie at this number of seeds."
+            )
     if frame["partial"].astype(bool).any() or (frame["n_seeds"] == 1).any():
         notes.append(
             f"(n=k): averaged over the k seeds present out of {int(frame['n_expected'].iloc[0])}."
@@ -155,11 +180,11 @@ def render_markdown(frame: pd.DataFrame, caption: str | None = None, decimals: i
     esc = _markdown_escape
 
     def fmt(row_cells: list) -> list[str]:
-        best = _best(row_cells, decimals)
+        best, tie = _best(row_cells, decimals)
         out = []
         for i, c in enumerate(row_cells):
             text = _cell_text(c, decimals, "±", "—")
-            out.append(f"**{text}**" if i in best else text)
+            out.append(f"**{text}**" if i in best else f"{text} †" if i in tie else text)
         return out
 
     lines = [f"**{caption or table_caption(frame)}**", ""]
@@ -200,11 +225,15 @@ def render_latex(
     esc = latex_escape
 
     def fmt(row_cells: list) -> list[str]:
-        best = _best(row_cells, decimals)
+        best, tie = _best(row_cells, decimals)
         out = []
         for i, c in enumerate(row_cells):
             text = _cell_text(c, decimals, r"$\pm$", "--")
-            out.append(rf"\textbf{{{text}}}" if i in best else text)
+            if i in best:
+                text = rf"\textbf{{{text}}}"
+            elif i in tie:
+                text += r"$^\dagger$"
+            out.append(text)
         return out
 
     blocks = _is_blocks(frame)

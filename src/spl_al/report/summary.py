@@ -10,6 +10,7 @@ import pandas as pd
 from spl_al.report.aggregate import method_curves
 from spl_al.report.display import ordered_methods
 from spl_al.report.records import one_dataset
+from spl_al.report.stats import aubc_per_seed, mean_interval
 
 
 def curve_area(ratio, mean) -> float:
@@ -40,6 +41,19 @@ def _num(x) -> float | None:
     return x if math.isfinite(x) else None
 
 
+def _aubc(areas: pd.DataFrame) -> dict:
+    stats = mean_interval(areas["aubc"])
+    return {
+        "mean": _num(stats["mean"]) if stats["n"] else None,
+        "ci_low": _num(stats["ci_low"]),
+        "ci_high": _num(stats["ci_high"]),
+        "n": stats["n"],
+        "per_seed": {
+            str(int(s)): float(v) for s, v in zip(areas["seed"], areas["aubc"], strict=True)
+        },
+    }
+
+
 def summary(df: pd.DataFrame, dataset: str | None = None) -> dict:
     """Per-method summary of one dataset, in the metric's own scale [0, 1].
 
@@ -48,10 +62,13 @@ def summary(df: pd.DataFrame, dataset: str | None = None) -> dict:
     "n_seeds", "n_rounds", "partial_rounds"}}}``. ``auc`` is ``curve_area`` of the mean
     curve (mean over the seeds present at each round); ``final_*`` describe the last
     round; ``partial_rounds`` lists rounds with fewer seeds than the method has; a
-    std over one seed is null.
+    std over one seed is null. ``aubc`` is the per-seed area under the budget curve
+    (``spl_al.report.stats.aubc_per_seed``): its mean, 95% t-interval (null for one
+    seed), n and the value of each seed.
     """
     d = one_dataset(df, dataset)
     curves = method_curves(d)
+    areas = aubc_per_seed(d)
     methods = {}
     for method in ordered_methods(d["method"]):
         c = curves[curves["method"] == method].sort_values("round")
@@ -67,6 +84,7 @@ def summary(df: pd.DataFrame, dataset: str | None = None) -> dict:
             "n_seeds": n_seeds,
             "n_rounds": len(c),
             "partial_rounds": [int(r) for r in c.loc[c["n_seeds"] < n_seeds, "round"]],
+            "aubc": _aubc(areas[areas["method"] == method]),
         }
     return {
         "dataset": str(d["dataset"].iloc[0]),

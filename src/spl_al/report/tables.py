@@ -3,7 +3,7 @@
 Every table function returns one row per cell, in the metric scale of the table
 (``metric_scale=100``: percent), with the columns
 
-    method, round, n_labeled, ratio, mean, std, n_seeds, n_expected, partial,
+    method, round, n_labeled, ratio, mean, std, n_seeds, n_expected, partial, mark,
     [level | parameter, value], row, col, row_pos, col_pos,
     table, dataset, metric, scale, synthetic_standin
 
@@ -12,6 +12,9 @@ Every table function returns one row per cell, in the metric scale of the table
 after a round trip through CSV). ``n_expected`` is the number of distinct seeds of the
 table's methods; a cell with ``n_seeds < n_expected`` is ``partial`` and shows its n.
 A method asked for but absent gets a row of empty cells (mean NaN, n_seeds 0).
+``mark`` is "bold" on a column's (sensitivity: a parameter's) highest mean when its
+paired difference to the runner-up is resolved (``spl_al.report.stats``), "tie" on a
+highest mean that is not, and empty elsewhere.
 """
 
 from __future__ import annotations
@@ -35,6 +38,7 @@ from spl_al.report.display import (
     unique_ratio_labels,
 )
 from spl_al.report.records import LEVELS, one_dataset, round_for_budget
+from spl_al.report.stats import leader_test
 
 TABLE_COLUMNS = (
     "method",
@@ -46,6 +50,7 @@ TABLE_COLUMNS = (
     "n_seeds",
     "n_expected",
     "partial",
+    "mark",
 )
 TRAILING_COLUMNS = (
     "row",
@@ -105,7 +110,35 @@ def _finish(
     # Any stand-in record of the dataset marks the whole table, not only its own cells.
     frame["synthetic_standin"] = bool(d["synthetic_standin"].any())
     frame = frame.sort_values(["row_pos", "col_pos"], ignore_index=True)
+    frame["mark"] = _leader_marks(frame, d, by="row" if kind == "sensitivity" else "col")
     return frame[[*TABLE_COLUMNS, *extra, *TRAILING_COLUMNS]]
+
+
+def _leader_marks(frame: pd.DataFrame, d: pd.DataFrame, by: str) -> pd.Series:
+    """ "bold" on a group's leader resolved from its runner-up (``spl_al.report.stats``),
+    "tie" on a leader that is not, "" elsewhere. A group is a column of a method table
+    or a parameter row of the sensitivity table; the test pairs the two methods' seeds
+    in the records ``d`` at the cell's round (and MSPPP level)."""
+    marks = pd.Series("", index=frame.index, dtype=object)
+    valued = frame[(frame["n_seeds"] > 0) & (frame["col_pos"] >= 0)]
+    for _, group in valued.groupby(by, sort=False):
+        parts = []
+        for _, cell in group.iterrows():
+            level = cell.get("level")
+            value_col = f"level_{level}" if isinstance(level, str) else "value"
+            at = d[(d["method"] == cell["method"]) & (d["round"] == cell["round"])]
+            parts.append(
+                pd.DataFrame({"method": cell["method"], "seed": at["seed"], "value": at[value_col]})
+            )
+        result = leader_test(pd.concat(parts, ignore_index=True))
+        if result is None:
+            continue
+        if result["direction"] > 0:
+            marks[group.index[group["method"] == result["leader"]]] = "bold"
+        else:  # every cell sharing the top mean is part of the tie
+            top = group["mean"].max()
+            marks[group.index[np.isclose(group["mean"], top, rtol=0, atol=1e-9)]] = "tie"
+    return marks
 
 
 def _cell(stat: pd.Series | None, **fields) -> dict:

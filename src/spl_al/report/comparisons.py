@@ -1,0 +1,218 @@
+"""Every paired comparison of a dataset's experiments, as one long-form frame.
+
+``comparisons(df, experiments, sweeps)`` runs ``spl_al.report.stats.pairwise`` at each
+point the tables show: the budget table's rounds and the area under the budget curve
+(AUBC), each MSPPP level at the levels round, the ablation round, and each swept
+parameter at its round. One row per (point, pair of methods), in percentage points
+(metric x 100); ``tables/comparisons.csv`` is this frame and the claims read it.
+
+Columns: experiment, point, parameter, round, n_labeled, method_a, method_b, value_a,
+value_b, n, mean_a, mean_b, diff (mean of A - B over paired seeds), ci_low, ci_high,
+p_value, p_min, resolved, direction, dataset, metric, scale, synthetic_standin.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+
+import numpy as np
+import pandas as pd
+
+from spl_al.report.display import LEVEL_LABELS, METRIC_LABELS, format_ratio, method_label
+from spl_al.report.records import LEVELS, one_dataset
+from spl_al.report.stats import aubc_per_seed, pairwise, rule_text
+
+COLUMNS = (
+    "experiment",
+    "point",
+    "parameter",
+    "round",
+    "n_labeled",
+    "method_a",
+    "method_b",
+    "value_a",
+    "value_b",
+    "n",
+    "mean_a",
+    "mean_b",
+    "diff",
+    "ci_low",
+    "ci_high",
+    "p_value",
+    "p_min",
+    "resolved",
+    "direction",
+    "dataset",
+    "metric",
+    "scale",
+    "synthetic_standin",
+)
+_SCALED = ("mean_a", "mean_b", "diff", "ci_low", "ci_high")
+
+
+def _values(d: pd.DataFrame, methods, round_: int, value_col: str = "value") -> pd.DataFrame:
+    at = d[d["method"].isin(methods) & (d["round"] == round_)]
+    return pd.DataFrame({"method": at["method"], "seed": at["seed"], "value": at[value_col]})
+
+
+def _rows(values: pd.DataFrame, methods, **fields) -> list[dict]:
+    values = values.dropna(subset=["value"])  # e.g. images without MSPPP levels
+    present = [m for m in methods if m in set(values["method"])]
+    if len(present) < 2:
+        return []
+    return [{**fields, **row} for row in pairwise(values, present).to_dict("records")]
+
+
+def _n_labeled(d: pd.DataFrame, round_: int) -> int | None:
+    at = d.loc[d["round"] == round_, "n_labeled"]
+    return int(at.median()) if not at.empty else None
+
+
+def comparisons(
+    df: pd.DataFrame,
+    experiments: Mapping,
+    sweeps: Mapping | None = None,
+    *,
+    metric_scale: float = 100,
+    dataset: str | None = None,
+) -> pd.DataFrame:
+    """Paired comparisons of one dataset's experiments (see the module docstring).
+
+    ``experiments``: the dataset's ``experiments`` config (budget, levels, ablation,
+    sensitivity). ``sweeps``: parameter -> {value: method} (``sweep_table_spec``), with
+    the parameter ``m`` or ``n_variants`` for M. Experiments that are not configured,
+    or whose methods have no records, give no rows.
+    """
+    d = one_dataset(df, dataset)
+    rows: list[dict] = []
+
+    budget = experiments.get("budget")
+    if budget:
+        methods = list(budget["methods"])
+        rounds = sorted(r for r in d["round"].unique() if r < int(budget["rounds"]))
+        for r in rounds:
+            n_lab = _n_labeled(d, r)
+            ratio = d.loc[d["round"] == r, "ratio"].mean()
+            rows += _rows(
+                _values(d, methods, r),
+                methods,
+                experiment="budget",
+                point=f"round {r} ({format_ratio(ratio)})",
+                round=r,
+                n_labeled=n_lab,
+            )
+        curves = d[d["method"].isin(methods) & (d["round"] < int(budget["rounds"]))]
+        area = aubc_per_seed(curves).rename(columns={"aubc": "value"})
+        rows += _rows(area, methods, experiment="budget", point="AUBC")
+
+        levels = experiments.get("levels")
+        if levels:
+            r = int(levels["round"])
+            for level in LEVELS:
+                rows += _rows(
+                    _values(d, methods, r, f"level_{level}"),
+                    methods,
+                    experiment="levels",
+                    point=f"{LEVEL_LABELS[level]} at round {r}",
+                    parameter=level,
+                    round=r,
+                    n_labeled=_n_labeled(d, r),
+                )
+
+    ablation = experiments.get("ablation")
+    if ablation:
+        r = int(ablation["round"])
+        rows += _rows(
+            _values(d, ablation["methods"], r),
+            list(ablation["methods"]),
+            experiment="ablation",
+            point=f"round {r}",
+            round=r,
+            n_labeled=_n_labeled(d, r),
+        )
+
+    sensitivity = experiments.get("sensitivity")
+    if sensitivity and sweeps:
+        for param, values in sweeps.items():
+            key = "n_variants" if param == "m" else param
+            if key not in sensitivity["rounds"]:
+                continue
+            r = int(sensitivity["rounds"][key])
+            value_of = {m: v for v, m in values.items()}
+            methods = list(value_of)
+            for row in _rows(
+                _values(d, methods, r),
+                methods,
+                experiment="sensitivity",
+                point=f"{param} at round {r}",
+                parameter=param,
+                round=r,
+                n_labeled=_n_labeled(d, r),
+            ):
+                row["value_a"] = value_of[row["method_a"]]
+                row["value_b"] = value_of[row["method_b"]]
+                rows.append(row)
+
+    frame = pd.DataFrame(rows, columns=[c for c in COLUMNS if c not in ("dataset", "metric")])
+    scale = float(metric_scale)
+    for col in _SCALED:
+        frame[col] = frame[col].astype(float) * scale
+    for col in ("round", "n_labeled"):
+        frame[col] = pd.array(frame[col], dtype="Int64")
+    frame["resolved"] = frame["resolved"].astype(bool)
+    frame["dataset"] = d["dataset"].iloc[0]
+    frame["metric"] = d["metric"].iloc[0]
+    frame["scale"] = scale
+    frame["synthetic_standin"] = bool(d["synthetic_standin"].any())
+    return frame[list(COLUMNS)]
+
+
+def _num(x, fmt: str = "+.1f") -> str:
+    return "—" if x is None or not np.isfinite(float(x)) else format(float(x), fmt)
+
+
+def comparison_text(row) -> str:
+    """One comparison in words: 'DUIS − Random: +2.0 [-1.1, 5.1] pp, p = 0.25 (n = 3)'."""
+    return (
+        f"{method_label(row['method_a'])} − {method_label(row['method_b'])}: "
+        f"{_num(row['diff'])} [{_num(row['ci_low'])}, {_num(row['ci_high'])}] pp, "
+        f"p = {_num(row['p_value'], '.3g')} (n = {int(row['n'])})"
+    )
+
+
+def render_comparisons_markdown(frame: pd.DataFrame) -> str:
+    """Markdown of a comparisons frame: one section per experiment, the rule once."""
+    if frame.empty:
+        return "**No paired comparisons: no experiment of this dataset has two methods.**\n"
+    first = frame.iloc[0]
+    metric = METRIC_LABELS.get(first["metric"], first["metric"])
+    lines = [
+        f"**Paired comparisons on {first['dataset']}: {metric}, A − B in percentage points "
+        "over the seeds both methods ran.**",
+        "",
+        f"Rule: {rule_text()}. p: exact two-sided sign-flip test over all 2^n sign "
+        "vectors (p_min = 2/2^n); interval: 95% t-interval of the mean paired difference.",
+    ]
+    for experiment, part in frame.groupby("experiment", sort=False):
+        lines += [
+            "",
+            f"*{experiment}*",
+            "",
+            "| Point | A − B | n | diff [95% CI] (pp) | p (min) | resolved |",
+            "|:---|:---|---:|---:|---:|:---|",
+        ]
+        for _, row in part.iterrows():
+            names = f"{method_label(row['method_a'])} − {method_label(row['method_b'])}"
+            if row["experiment"] == "sensitivity":
+                names = f"{row['value_a']} − {row['value_b']}"
+            verdict = (
+                ("A better" if row["direction"] > 0 else "B better") if row["resolved"] else "no"
+            )
+            lines.append(
+                f"| {row['point']} | {names} | {int(row['n'])} | {_num(row['diff'])} "
+                f"[{_num(row['ci_low'])}, {_num(row['ci_high'])}] | "
+                f"{_num(row['p_value'], '.3g')} ({_num(row['p_min'], '.3g')}) | {verdict} |"
+            )
+    if bool(first["synthetic_standin"]):
+        lines += ["", f"*{first['dataset']} is a synthetic stand-in for real data.*"]
+    return "\n".join(lines) + "\n"

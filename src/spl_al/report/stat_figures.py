@@ -1,0 +1,193 @@
+"""Figures of the paired statistics: AUBC with intervals, robustness heatmaps.
+
+matplotlib is imported only when a figure is made (``curves._new_figure``).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+import numpy as np
+import pandas as pd
+
+from spl_al.report.curves import _new_figure
+from spl_al.report.display import METRIC_LABELS, method_colors, method_label, ordered_methods
+from spl_al.report.records import one_dataset
+from spl_al.report.stats import aubc_per_seed, mean_interval
+
+
+def _metric_name(metric: str) -> str:
+    return METRIC_LABELS.get(metric, metric)
+
+
+def aubc_figure(df: pd.DataFrame, methods: Sequence[str] | None = None, dataset=None):
+    """AUBC (percent) per method: every seed as a dot, the mean with its 95% t-interval.
+
+    ``methods``: the budget methods in display order (default: every method of ``df``);
+    each method's curve spans the same rounds as the others'.
+    """
+    d = one_dataset(df, dataset)
+    methods = list(methods) if methods is not None else ordered_methods(d["method"])
+    areas = aubc_per_seed(d[d["method"].isin(methods)])
+    colors = method_colors(methods)
+    fig = _new_figure(6.4, 0.5 * len(methods) + 1.6)
+    ax = fig.add_subplot()
+    for y, method in enumerate(methods):
+        values = 100 * areas.loc[areas["method"] == method, "aubc"].to_numpy()
+        if values.size == 0:
+            continue
+        stats = mean_interval(values)
+        ax.scatter(values, np.full(values.size, y), s=14, color=colors[method], alpha=0.5)
+        if np.isfinite(stats["ci_low"]):
+            ax.errorbar(
+                stats["mean"],
+                y,
+                xerr=[[stats["mean"] - stats["ci_low"]], [stats["ci_high"] - stats["mean"]]],
+                fmt="o",
+                color=colors[method],
+                capsize=4,
+                markersize=7,
+            )
+        else:
+            ax.plot(stats["mean"], y, "o", color=colors[method], markersize=7)
+    ax.set_yticks(range(len(methods)), [method_label(m) for m in methods])
+    ax.invert_yaxis()
+    n = int(areas["seed"].nunique()) if not areas.empty else 0
+    metric = _metric_name(d["metric"].iloc[0])
+    standin = ", synthetic stand-in" if bool(d["synthetic_standin"].any()) else ""
+    ax.set_title(
+        f"{d['dataset'].iloc[0]}{standin}: area under the budget curve\n"
+        f"mean and 95% t-interval over n = {n} seeds; small dots: single seeds",
+        fontsize=10,
+    )
+    ax.set_xlabel(f"AUBC: mean {metric} (%) over the labeling-ratio range")
+    ax.grid(axis="x", alpha=0.3)
+    return fig
+
+
+def heatmap_figure(cells: pd.DataFrame, *, note: str = ""):
+    """One heatmap per method of the robustness grid (mean over seeds, percent).
+
+    ``cells``: ``spl_al.experiment.robustness.robustness_table`` rows (method, msppp,
+    sbr, mean, n_seeds, trained_range). Cells outside the training conditions are
+    outlined with a dashed line.
+    """
+    methods = ordered_methods(cells["method"])
+    msppp = np.sort(cells["msppp"].unique())
+    sbr = np.sort(cells["sbr"].unique())
+    cols = min(3, len(methods))
+    rows = -(-len(methods) // cols)
+    fig = _new_figure(3.4 * cols + 0.8, 2.9 * rows + 0.9)
+    lo, hi = float(np.nanmin(cells["mean"])), float(np.nanmax(cells["mean"]))
+    image = None
+    for k, method in enumerate(methods):
+        ax = fig.add_subplot(rows, cols, k + 1)
+        grid = _grid(cells[cells["method"] == method], msppp, sbr, "mean")
+        image = ax.imshow(grid, origin="lower", cmap="viridis", vmin=lo, vmax=hi, aspect="auto")
+        for i in range(len(msppp)):
+            for j in range(len(sbr)):
+                if np.isfinite(grid[i, j]):
+                    ax.text(
+                        j,
+                        i,
+                        f"{grid[i, j]:.0f}",
+                        ha="center",
+                        va="center",
+                        fontsize=7,
+                        color="white" if grid[i, j] < (lo + hi) / 2 else "black",
+                    )
+        _outline_training(ax, cells[cells["method"] == method], msppp, sbr)
+        _axes(ax, msppp, sbr)
+        n = int(cells.loc[cells["method"] == method, "n_seeds"].max())
+        ax.set_title(f"{method_label(method)} (n = {n})", fontsize=9)
+    first = cells.iloc[0]
+    fig.suptitle(
+        f"{first['dataset']}: {_metric_name(first['metric'])} (%) of the final-round model "
+        f"over MSPPP x SBR{note}",
+        fontsize=10,
+    )
+    if image is not None:
+        fig.colorbar(image, ax=fig.axes, shrink=0.8)
+    return fig
+
+
+def difference_figure(diff: pd.DataFrame, *, note: str = ""):
+    """DUIS minus the best baseline per grid cell (pp); a cell whose paired 95%
+    interval spans zero is hatched and its number greyed."""
+    msppp = np.sort(diff["msppp"].unique())
+    sbr = np.sort(diff["sbr"].unique())
+    fig = _new_figure(5.2, 4.2)
+    ax = fig.add_subplot()
+    grid = _grid(diff, msppp, sbr, "diff")
+    bound = float(np.nanmax(np.abs(grid))) if np.isfinite(grid).any() else 1.0
+    image = ax.imshow(grid, origin="lower", cmap="RdBu", vmin=-bound, vmax=bound, aspect="auto")
+    spans = _grid(diff.assign(s=diff["spans_zero"].astype(float)), msppp, sbr, "s")
+    for i in range(len(msppp)):
+        for j in range(len(sbr)):
+            if not np.isfinite(grid[i, j]):
+                continue
+            unsure = spans[i, j] != 0
+            ax.text(
+                j,
+                i,
+                f"{grid[i, j]:+.1f}",
+                ha="center",
+                va="center",
+                fontsize=7,
+                color="0.45" if unsure else "black",
+            )
+            if unsure:
+                ax.add_patch(_hatch(j, i))
+    _outline_training(ax, diff, msppp, sbr)
+    _axes(ax, msppp, sbr)
+    first = diff.iloc[0]
+    ax.set_title(
+        f"{first['dataset']}: DUIS − {method_label(first['baseline'])} (best baseline), pp"
+        f"{note}\nhatched: 95% paired interval spans zero (n = {int(diff['n'].max())})",
+        fontsize=9,
+    )
+    fig.colorbar(image, ax=ax, shrink=0.8)
+    return fig
+
+
+def _grid(cells: pd.DataFrame, msppp, sbr, column: str) -> np.ndarray:
+    grid = np.full((len(msppp), len(sbr)), np.nan)
+    i = np.searchsorted(msppp, cells["msppp"].to_numpy())
+    j = np.searchsorted(sbr, cells["sbr"].to_numpy())
+    grid[i, j] = cells[column].to_numpy(dtype=float)
+    return grid
+
+
+def _axes(ax, msppp, sbr) -> None:
+    ax.set_xticks(range(len(sbr)), [f"{v:g}" for v in sbr], fontsize=7)
+    ax.set_yticks(range(len(msppp)), [f"{v:g}" for v in msppp], fontsize=7)
+    ax.set_xlabel("SBR", fontsize=8)
+    ax.set_ylabel("MSPPP (signal photons / pixel)", fontsize=8)
+
+
+def _hatch(j: int, i: int):
+    from matplotlib.patches import Rectangle
+
+    return Rectangle((j - 0.5, i - 0.5), 1, 1, fill=False, hatch="///", edgecolor="0.6", lw=0)
+
+
+def _outline_training(ax, cells: pd.DataFrame, msppp, sbr) -> None:
+    """Dashed outline around the cells inside the training conditions' range."""
+    from matplotlib.patches import Rectangle
+
+    inside = cells[cells["trained_range"].astype(bool)]
+    if inside.empty:
+        return
+    i = np.searchsorted(msppp, inside["msppp"].to_numpy())
+    j = np.searchsorted(sbr, inside["sbr"].to_numpy())
+    ax.add_patch(
+        Rectangle(
+            (j.min() - 0.5, i.min() - 0.5),
+            j.max() - j.min() + 1,
+            i.max() - i.min() + 1,
+            fill=False,
+            linestyle="--",
+            edgecolor="white",
+            lw=1.2,
+        )
+    )

@@ -1,0 +1,96 @@
+# Condition robustness map: the test split re-observed over a grid of MSPPP x SBR
+# (once per dataset, in shards), each budget method's final-round model evaluated on
+# it per seed (forward passes only), then tables, heatmaps and the difference map.
+
+
+rule robustness_grid:
+    input:
+        f"{RESULTS}/{{dataset}}/data/observed.npz",
+    output:
+        f"{RESULTS}/{{dataset}}/robustness/grid/shard{{shard}}.npz",
+    log:
+        f"{RESULTS}/logs/{{dataset}}/robustness_grid_shard{{shard}}.log",
+    benchmark:
+        f"{RESULTS}/benchmarks/{{dataset}}/robustness_grid_shard{{shard}}.tsv"
+    conda:
+        "../envs/spl-al.yaml"
+    threads: 1
+    resources:
+        mem_mb=3000,
+        runtime=30,
+    params:
+        grid=lambda w: robustness_grid(w.dataset),
+    script:
+        "../scripts/robustness_grid.py"
+
+
+rule robustness_eval:
+    input:
+        data=f"{RESULTS}/{{dataset}}/data/observed.npz",
+        grid=robustness_shards,
+        model=final_model,
+    output:
+        f"{RESULTS}/{{dataset}}/robustness/{{method}}/seed{{seed}}.json",
+    log:
+        f"{RESULTS}/logs/{{dataset}}/{{method}}/seed{{seed}}/robustness_eval.log",
+    benchmark:
+        f"{RESULTS}/benchmarks/{{dataset}}/{{method}}/seed{{seed}}/robustness_eval.tsv"
+    conda:
+        "../envs/spl-al.yaml"
+    threads: config["threads_per_job"]
+    resources:
+        mem_mb=4000,
+        runtime=30,
+        gpu=config["gpus_per_train_job"],
+    params:
+        model=lambda w: config["datasets"][w.dataset]["train"]["model"],
+        names=lambda w: {
+            "dataset": w.dataset,
+            "method": w.method,
+            "seed": int(w.seed),
+            "round": int(
+                config["datasets"][w.dataset]["experiments"]["budget"]["rounds"]
+            )
+            - 1,
+        },
+        device=config["device"],
+    script:
+        "../scripts/robustness_eval.py"
+
+
+rule robustness_report:
+    input:
+        data=f"{RESULTS}/{{dataset}}/data/observed.npz",
+        evals=robustness_evals,
+    output:
+        table=report(
+            f"{RESULTS}/{{dataset}}/tables/robustness.csv",
+            caption="../report/robustness_table.rst",
+            category="{dataset}",
+            subcategory="Robustness",
+        ),
+        diff=f"{RESULTS}/{{dataset}}/tables/robustness_diff.csv",
+        heatmaps=report(
+            f"{RESULTS}/{{dataset}}/figures/robustness.png",
+            caption="../report/robustness.rst",
+            category="{dataset}",
+            subcategory="Robustness",
+        ),
+        diff_map=report(
+            f"{RESULTS}/{{dataset}}/figures/robustness_diff.png",
+            caption="../report/robustness_diff.rst",
+            category="{dataset}",
+            subcategory="Robustness",
+        ),
+    log:
+        f"{RESULTS}/logs/{{dataset}}/robustness_report.log",
+    benchmark:
+        f"{RESULTS}/benchmarks/{{dataset}}/robustness_report.tsv"
+    conda:
+        "../envs/spl-al.yaml"
+    threads: 1
+    resources:
+        mem_mb=2000,
+        runtime=10,
+    script:
+        "../scripts/robustness_report.py"
