@@ -177,27 +177,37 @@ def _throughput(task: str, arch: str, shape: tuple[int, int], batch: int, steps:
 def bench_training(threads: list[int]) -> tuple[list[list[str]], float]:
     import torch
 
+    default_cls = {"input_pool": 2, "first_stride": 1, "dropout": 0.5}  # config/config.yaml
     cases = (
         (
-            "default CPU classifier (smallcnn), 64x64",
+            "default classifier (smallcnn, 2x2 input pooling), 64x64",
             "classification",
             "smallcnn",
             (64, 64),
             128,
             40,
+            default_cls,
         ),
-        ("ResNet-18 (ImageNet stem), 64x64", "classification", "resnet18", (64, 64), 128, 6),
-        ("default U-Net (width 16, depth 3), 64x256", "segmentation", "unet", (64, 256), 16, 10),
+        ("ResNet-18 (ImageNet stem), 64x64", "classification", "resnet18", (64, 64), 128, 6, {}),
+        (
+            "default U-Net (width 16, depth 3), 64x256",
+            "segmentation",
+            "unet",
+            (64, 256),
+            16,
+            10,
+            {},
+        ),
     )
     before = torch.get_num_threads()
     torch.set_num_threads(max(threads))
     gflops = matmul_gflops()
     rows = []
     try:
-        for label, task, arch, shape, batch, steps in cases:
+        for label, task, arch, shape, batch, steps, params in cases:
             for n_threads in threads:
                 torch.set_num_threads(n_threads)
-                rate, fwd = _throughput(task, arch, shape, batch, steps)
+                rate, fwd = _throughput(task, arch, shape, batch, steps, **params)
                 achieved = 3 * fwd * rate  # backward ~ 2x forward
                 rows.append(
                     [label, str(n_threads), str(batch), f"{rate:.0f}", f"{fwd * 1e3:.1f}",
