@@ -49,14 +49,7 @@ def initial_set(
         idx = listed
     else:
         idx = initial_labeled_set(len(dataset.train_idx), int(al["initial"]), int(seed))
-    record = {
-        "seed": int(seed),
-        "round": 0,
-        "n_labeled": int(idx.size),
-        "pool_indices": np.sort(idx).tolist(),
-    }
-    write_json(record, out_path)
-    return record
+    return steps.write_initial_set(idx, seed, out_path)
 
 
 def _asked(record: dict) -> list[int]:

@@ -228,6 +228,12 @@ def initial_set(dataset_path, al: dict, seed: int, out_path) -> dict:
     idx = initial_labeled_set(
         len(dataset.train_idx), int(al["initial"]), int(seed), labels=labels, stratified=stratified
     )
+    return write_initial_set(idx, seed, out_path)
+
+
+def write_initial_set(idx, seed: int, out_path) -> dict:
+    """Write a seed's round-0 labeled set (training-split indices) as its JSON record."""
+    idx = np.asarray(idx)
     record = {
         "seed": int(seed),
         "round": 0,
