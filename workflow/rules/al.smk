@@ -1,7 +1,8 @@
 # Active-learning rounds per dataset x method x seed: train (fit, evaluate, score) -> query.
 # Round r trains on round r's labeled set (round 0: the seed's initial set, shared by
-# every method) and scores the unlabeled pool with the model still in memory; query
-# of round r + 1 selects from those scores and writes round r + 1's labeled set.
+# every method; train_initial fits its model once per number of variants per group)
+# and scores the unlabeled pool with the model still in memory; query of round r + 1
+# selects from those scores and writes round r + 1's labeled set.
 
 
 rule initial_set:
@@ -27,8 +28,37 @@ rule initial_set:
         "../scripts/initial_set.py"
 
 
+rule train_initial:
+    input:
+        data=f"{RESULTS}/{{dataset}}/data/dataset.npz",
+        labeled=f"{RESULTS}/{{dataset}}/initial/seed{{seed}}.json",
+    output:
+        model=f"{RESULTS}/{{dataset}}/initial/seed{{seed}}/m{{m}}/model.pt",
+        fit=f"{RESULTS}/{{dataset}}/initial/seed{{seed}}/m{{m}}/fit.json",
+    log:
+        f"{RESULTS}/logs/{{dataset}}/initial_seed{{seed}}_m{{m}}_train.log",
+    benchmark:
+        f"{RESULTS}/benchmarks/{{dataset}}/initial_seed{{seed}}_m{{m}}_train.tsv"
+    wildcard_constraints:
+        dataset=one_of(SIMULATED),
+        m=r"\d+",
+    conda:
+        "../envs/spl-al.yaml"
+    threads: config["threads_per_job"]
+    resources:
+        mem_mb=4000,
+        runtime=60,
+        gpu=config["gpus_per_train_job"],
+    params:
+        setup=lambda w: {"train": config["datasets"][w.dataset]["train"]},
+        device=config["device"],
+    script:
+        "../scripts/train_initial.py"
+
+
 rule train:
     input:
+        unpack(initial_fit),
         data=f"{RESULTS}/{{dataset}}/data/dataset.npz",
         labeled=labeled_input,
         labels=given_labels,

@@ -100,6 +100,26 @@ def labeled_input(wildcards):
     return labeled_in_round(wildcards, int(wildcards.round))
 
 
+def initial_variants(wildcards):
+    """Variants per group a method trains on (0: observed images only)."""
+    method = dataset_method(config, wildcards.dataset, wildcards.method, METHODS)
+    if not method.use_variants:
+        return 0
+    if method.n_variants is not None:
+        return int(method.n_variants)
+    return int(config["datasets"][wildcards.dataset]["variants"]["n"])
+
+
+def initial_fit(wildcards):
+    """Round 0 of a simulated oracle is fitted once per seed and variants per group
+    (by train_initial): every method with the same start would train the same model.
+    """
+    if int(wildcards.round) != 0 or wildcards.dataset in HUMAN:
+        return {}
+    folder = f"{RESULTS}/{wildcards.dataset}/initial/seed{wildcards.seed}/m{initial_variants(wildcards)}"
+    return {"initial_model": f"{folder}/model.pt", "initial_fit": f"{folder}/fit.json"}
+
+
 def previous_labeled(wildcards):
     """The labeled set round r - 1 trained on (query of round r adds to it)."""
     return labeled_in_round(wildcards, int(wildcards.round) - 1)

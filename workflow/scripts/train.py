@@ -25,4 +25,9 @@ with job_log(
         threads=snakemake.threads,
         log=log,
         labels_path=snakemake.input.labels or None,
+        initial_fit=(
+            (snakemake.input.initial_model, snakemake.input.initial_fit)
+            if hasattr(snakemake.input, "initial_fit")
+            else None
+        ),
     )

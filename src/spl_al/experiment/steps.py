@@ -263,54 +263,17 @@ def _model(dataset, model_cfg: dict):
     return build_model(dataset.task, len(dataset.classes), arch=arch, **cfg)
 
 
-def train_round(
-    dataset_path,
-    labeled_path,
-    setup: dict,
-    dataset_name: str,
-    method_name: str,
-    seed: int,
-    round_: int,
-    model_path,
-    metrics_path,
-    scores_path,
-    device: str = "auto",
-    threads: int | None = None,
-    log=None,
-    labels_path=None,
-) -> dict:
-    """Train on round r's labeled groups, evaluate on the test split, then score the
-    unlabeled pool for the next query (``score_pool``) with the model still in memory.
-
-    The training labels are the dataset's (the simulated oracle), or with
-    ``labels_path`` the ones a person gave (``spl_al.labeling.save_labels``).
-
-    ``setup`` holds ``train`` (``model``: arch and its parameters, ``fit``: a
-    TrainConfig) and ``method`` (MethodSpec fields). A method with ``use_variants``
-    trains on the observed image and the method's M variants of each labeled group,
-    all with the group's label or mask. The metrics record is the one
-    ``spl_al.report`` aggregates.
-    """
-    import torch
-
-    from spl_al.data import LEVELS, Dataset
+def _fit_and_evaluate(
+    dataset, pool_idx, given, setup, n_variants, seed, round_, device, threads, log
+):
+    """Train a fresh model on the labeled groups ``pool_idx`` (with ``n_variants``
+    variants each) and evaluate it on the test split: (model, metrics, train images,
+    training seconds)."""
     from spl_al.training import TrainConfig, evaluate, train
 
-    _set_threads(threads)
     started = time.perf_counter()
-    dataset = Dataset.load(dataset_path)
-    method = MethodSpec(name=method_name, **{"params": {}, **setup["method"]})
     cfg = TrainConfig.from_dict({**setup["train"].get("fit", {}), "num_threads": threads})
-    pool_idx = read_labeled(labeled_path)
-    sample_idx = dataset.train_idx[pool_idx]
-    m = _n_variants(method, dataset) if method.use_variants else 0
-    depth, valid = dataset.groups(sample_idx, n_variants=m)
-    if labels_path is None:
-        given = dataset.labels[sample_idx]
-    else:
-        from spl_al.labeling import labels_for
-
-        given = labels_for(labels_path, pool_idx).astype(dataset.labels.dtype)
+    depth, valid = dataset.groups(dataset.train_idx[pool_idx], n_variants=n_variants)
     targets = np.repeat(given, depth.shape[1], axis=0)
     images = depth.reshape(-1, *depth.shape[2:])
     model = _model(dataset, setup["train"]["model"])
@@ -336,6 +299,115 @@ def train_round(
         device=device,
         batch_size=cfg.eval_batch_size,
     )
+    return model, metrics, int(images.shape[0]), train_seconds
+
+
+def train_initial(
+    dataset_path,
+    labeled_path,
+    setup: dict,
+    n_variants: int,
+    seed: int,
+    model_path,
+    fit_path,
+    device: str = "auto",
+    threads: int | None = None,
+    log=None,
+) -> dict:
+    """Round 0's training, done once per seed and number of variants per group.
+
+    Every method starts from the seed's initial labeled set and trains with the same
+    seed, so all methods that use ``n_variants`` variants per group (0: observed
+    images only) would train the same model; ``train_round`` reuses this one instead
+    (``initial_fit``). Writes the weights and ``fit_path`` (test metrics, training
+    images and seconds).
+    """
+    import torch
+
+    from spl_al.data import Dataset
+
+    _set_threads(threads)
+    dataset = Dataset.load(dataset_path)
+    pool_idx = read_labeled(labeled_path)
+    given = dataset.labels[dataset.train_idx[pool_idx]]
+    model, metrics, n_images, seconds = _fit_and_evaluate(
+        dataset, pool_idx, given, setup, int(n_variants), seed, 0, device, threads, log
+    )
+    state = model.state_dict()
+    atomic_write(model_path, lambda tmp: torch.save(state, tmp))
+    fit = {"metrics": metrics, "train_images": n_images, "train_seconds": round(seconds, 3)}
+    write_json(fit, fit_path)
+    return fit
+
+
+def train_round(
+    dataset_path,
+    labeled_path,
+    setup: dict,
+    dataset_name: str,
+    method_name: str,
+    seed: int,
+    round_: int,
+    model_path,
+    metrics_path,
+    scores_path,
+    device: str = "auto",
+    threads: int | None = None,
+    log=None,
+    labels_path=None,
+    initial_fit=None,
+) -> dict:
+    """Train on round r's labeled groups, evaluate on the test split, then score the
+    unlabeled pool for the next query (``score_pool``) with the model still in memory.
+
+    The training labels are the dataset's (the simulated oracle), or with
+    ``labels_path`` the ones a person gave (``spl_al.labeling.save_labels``).
+    ``initial_fit`` = (weights, fit record) of ``train_initial``: round 0's model,
+    trained once for every method that trains like this one, is loaded instead of
+    trained again (the same seed and images give the same weights).
+
+    ``setup`` holds ``train`` (``model``: arch and its parameters, ``fit``: a
+    TrainConfig) and ``method`` (MethodSpec fields). A method with ``use_variants``
+    trains on the observed image and the method's M variants of each labeled group,
+    all with the group's label or mask. The metrics record is the one
+    ``spl_al.report`` aggregates.
+    """
+    import torch
+
+    from spl_al.data import LEVELS, Dataset
+
+    _set_threads(threads)
+    started = time.perf_counter()
+    dataset = Dataset.load(dataset_path)
+    method = MethodSpec(name=method_name, **{"params": {}, **setup["method"]})
+    pool_idx = read_labeled(labeled_path)
+    m = _n_variants(method, dataset) if method.use_variants else 0
+    if initial_fit is not None:
+        weights, fit_path = initial_fit
+        fit = read_json(fit_path)
+        if fit["train_images"] != pool_idx.size * (m + 1):
+            raise ValueError(
+                f"{fit_path} trained on {fit['train_images']} images, but round 0 of "
+                f"{method_name} trains on {pool_idx.size * (m + 1)}; remove it to retrain."
+            )
+        model = _model(dataset, setup["train"]["model"])
+        model.load_state_dict(torch.load(weights, map_location="cpu", weights_only=True))
+        model.eval()
+        metrics, n_images, train_seconds = (
+            fit["metrics"],
+            fit["train_images"],
+            fit["train_seconds"],
+        )
+    else:
+        if labels_path is None:
+            given = dataset.labels[dataset.train_idx[pool_idx]]
+        else:
+            from spl_al.labeling import labels_for
+
+            given = labels_for(labels_path, pool_idx).astype(dataset.labels.dtype)
+        model, metrics, n_images, train_seconds = _fit_and_evaluate(
+            dataset, pool_idx, given, setup, m, seed, round_, device, threads, log
+        )
     state = model.state_dict()
     atomic_write(model_path, lambda tmp: torch.save(state, tmp))
     scored = score_pool(model, dataset, pool_idx, method, scores_path, device=device)
@@ -361,7 +433,7 @@ def train_round(
             if v[key] is not None and level in LEVELS  # not "unknown" (external files)
         },
         "synthetic_standin": bool(dataset.meta.get("synthetic_standin", False)),
-        "train_images": int(images.shape[0]),
+        "train_images": n_images,
         "train_seconds": round(train_seconds, 3),
         "score_seconds": scored["seconds"],
         "seconds": round(time.perf_counter() - started, 3),
