@@ -255,11 +255,15 @@ def _set_threads(threads: int | None) -> None:
         torch.set_num_threads(int(threads))
 
 
-def _model(dataset, model_cfg: dict):
-    from spl_al.models import build_model
+def model_for(dataset, model_cfg: dict):
+    """The configured model (``model_cfg``: arch and its parameters) for ``dataset``;
+    an architecture that needs the scan grid (PointNet++) gets ``dataset.grid()``."""
+    from spl_al.models import build_model, needs_grid
 
     cfg = dict(model_cfg)
     arch = cfg.pop("arch", None)
+    if needs_grid(dataset.task, arch):
+        cfg["grid"] = dataset.grid()
     return build_model(dataset.task, len(dataset.classes), arch=arch, **cfg)
 
 
@@ -313,7 +317,7 @@ def train_round(
         given = labels_for(labels_path, pool_idx).astype(dataset.labels.dtype)
     targets = np.repeat(given, depth.shape[1], axis=0)
     images = depth.reshape(-1, *depth.shape[2:])
-    model = _model(dataset, setup["train"]["model"])
+    model = model_for(dataset, setup["train"]["model"])
     model = train(
         model,
         images,
@@ -408,7 +412,7 @@ def score_round(
     _set_threads(threads)
     dataset = Dataset.load(dataset_path)
     method = MethodSpec(name=method_name, **{"params": {}, **setup["method"]})
-    model = _model(dataset, setup["train"]["model"])
+    model = model_for(dataset, setup["train"]["model"])
     model.load_state_dict(torch.load(model_path, map_location="cpu", weights_only=True))
     return score_pool(model, dataset, read_labeled(labeled_path), method, out_path, device)
 
