@@ -296,7 +296,7 @@ class PointNet2Seg(nn.Module):
         grid=None,
         n_points: int = 1024,
         centres=(256, 64, 16),
-        radii_m=(2.0, 5.0, 12.0),
+        radii_m=(1.0, 3.0, 8.0),
         neighbours: int = 16,
         width: int = 16,
         coord_scale_m: float = 20.0,
