@@ -74,8 +74,11 @@ def test_three_nn_interpolation_matches_brute_force(backend):
         w = 1 / (np.take_along_axis(d, nn3, 1) + 1e-8)
         w /= w.sum(1, keepdims=True)
         np.testing.assert_allclose(got[b], (v[b].numpy()[nn3] * w[..., None]).sum(1), atol=1e-9)
-    # a query at a known point takes that point's value
+    # a query at a known point takes that point's value, also in float32 100 m away
     np.testing.assert_allclose(three_nn_interpolate(x, x, v, backend).numpy(), v.numpy(), atol=1e-6)
+    far = (x + 100.0).float()
+    own = three_nn_interpolate(far, far, v.float(), backend).numpy()
+    np.testing.assert_allclose(own, v.numpy(), atol=1e-4)
 
 
 def test_sample_pixels_rules():

@@ -104,12 +104,21 @@ def knn(
                 torch.from_numpy(dist**2).to(query.dtype).to(query.device),
                 torch.from_numpy(idx).to(query.device),
             )
+        # centred on the reference cloud's mean, then the k winners' distances are
+        # recomputed as differences: the matrix-product form loses digits far away
+        centre = ref.mean(dim=1, keepdim=True)
+        q, r = query - centre, ref - centre
         rows = max(1, _CHUNK_ELEMENTS // max(1, b * n))
-        parts = [
-            torch.topk(square_distances(query[:, s : s + rows], ref), k, dim=-1, largest=False)
-            for s in range(0, p, rows)
-        ]
-        return torch.cat([d for d, _ in parts], 1), torch.cat([i for _, i in parts], 1)
+        idx = torch.cat(
+            [
+                torch.topk(square_distances(q[:, s : s + rows], r), k, dim=-1, largest=False)[1]
+                for s in range(0, p, rows)
+            ],
+            dim=1,
+        )
+        d2 = ((q[:, :, None, :] - gather_points(r, idx)) ** 2).sum(-1)
+        d2, order = torch.sort(d2, dim=-1, stable=True)
+        return d2, torch.gather(idx, -1, order)
 
 
 def farthest_point_sample(xyz: torch.Tensor, n_centres: int) -> torch.Tensor:
