@@ -84,10 +84,11 @@ def test_every_table_has_its_rows_columns_and_ranges(ci_results):
         assert (cls / f"{name}.md").read_text().count("|") > 10
         assert "\\begin{tabular}" in (cls / f"{name}.tex").read_text()
 
-    seg = pd.read_csv(ci_results / "street_seg" / "tables" / "budget.csv")
-    assert sorted(seg["method"].unique()) == ["duis", "random"]
-    assert (seg["metric"] == "miou").all() and seg["mean"].between(0, 100).all()
-    assert not seg["synthetic_standin"].any()
+    for dataset in ("street_seg", "street_pc"):  # range images (U-Net) and points (PointNet++)
+        seg = pd.read_csv(ci_results / dataset / "tables" / "budget.csv")
+        assert sorted(seg["method"].unique()) == ["duis", "random"]
+        assert (seg["metric"] == "miou").all() and seg["mean"].between(0, 100).all()
+        assert not seg["synthetic_standin"].any()
 
     summary = json.loads((cls / "summary.json").read_text())
     assert sorted(summary["methods"]) == sorted(
@@ -97,7 +98,7 @@ def test_every_table_has_its_rows_columns_and_ranges(ci_results):
     for stats in summary["methods"].values():
         assert 0 <= stats["auc"] <= 1 and 0 <= stats["final_mean"] <= 1
 
-    for dataset in ("real_cls", "street_seg"):
+    for dataset in ("real_cls", "street_seg", "street_pc"):
         figures = ci_results / dataset / "figures"
         for name in ("curves.png", "level_curves.png", "contact_sheet.png", "variants_sheet.png"):
             assert (figures / name).read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"

@@ -88,11 +88,11 @@ def test_evaluate_grid_and_tables(observed, tmp_path):
     import torch
 
     from spl_al.data import Dataset
-    from spl_al.experiment.steps import _model
+    from spl_al.experiment.steps import model_for
 
     shard = tmp_path / "grid.npz"
     make_grid_shard(observed, {**GRID, "shards": 1}, 0, shard)
-    model = _model(Dataset.load(observed), {"arch": "smallcnn"})
+    model = model_for(Dataset.load(observed), {"arch": "smallcnn"})
     torch.save(model.state_dict(), tmp_path / "model.pt")
     evals = []
     for method, seed in (("random", 1), ("random", 2), ("duis", 1), ("duis", 2)):

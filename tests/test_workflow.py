@@ -57,7 +57,7 @@ def test_override_file_changes_only_the_values_it_names(tmp_path):
 def test_ci_config_keeps_the_defaults_it_does_not_name_and_drops_synth_cls(tmp_path):
     got = effective_config(tmp_path, "--configfile", "config/ci.yaml")
     default = yaml.safe_load((ROOT / "config" / "config.yaml").read_text())
-    assert sorted(got["datasets"]) == ["real_cls", "street_seg"]
+    assert sorted(got["datasets"]) == ["real_cls", "street_pc", "street_seg"]
     assert got["datasets"]["real_cls"]["al"] == {"initial": 11, "batch": 6, "ratio_of": "all"}
     assert got["methods"]["duis"] == {
         "strategy": "duis",
@@ -65,6 +65,8 @@ def test_ci_config_keeps_the_defaults_it_does_not_name_and_drops_synth_cls(tmp_p
         "use_variants": True,
     }
     assert got["datasets"]["street_seg"]["task"] == "segmentation"
+    assert got["datasets"]["street_pc"]["train"]["model"]["arch"] == "pointnet2"
+    assert got["datasets"]["street_pc"]["synthesis"]["seed"] == 2  # the street scenes
     assert got["methods"]["syn_badge"] == default["methods"]["syn_badge"]
 
 

@@ -14,6 +14,9 @@ strategies asked for (``spl_al.strategies.inputs.NEEDS``):
   where the variant itself is void), features are averaged over the same pixels,
   and BADGE's embedding is the pixel-averaged C x d gradient matrix. Nothing per
   pixel is stored, so the output is O(groups x (C x d)) whatever the image size.
+  For PointNet++ the valid pixels are the cloud's points, so Coreset's and DUIS's
+  per-cloud features are the mean of the per-point features over the observed
+  cloud's points, and BADGE's embedding the point-averaged gradient matrix.
 """
 
 from __future__ import annotations

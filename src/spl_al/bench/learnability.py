@@ -112,15 +112,14 @@ def learner_score(
 ) -> float:
     """Test accuracy (mIoU) of the configured model trained on samples ``labeled``
     (with their variants when ``variants``), as a pipeline round trains it."""
-    from spl_al.models import build_model
+    from spl_al.experiment.steps import model_for
     from spl_al.training import TrainConfig, evaluate, train
 
     m = dataset.n_variants if variants else 0
     depth, valid = dataset.groups(labeled, n_variants=m)
     images = depth.reshape(-1, *depth.shape[2:])
     targets = np.repeat(dataset.labels[labeled], depth.shape[1], axis=0)
-    cfg = dict(model_cfg)
-    model = build_model(dataset.task, len(dataset.classes), arch=cfg.pop("arch", None), **cfg)
+    model = model_for(dataset, model_cfg)
     fit = TrainConfig.from_dict({**fit_cfg, "log_every": 0})
     model = train(model, images, valid.reshape(images.shape), targets, fit, seed=seed, log=_Null())
     test = dataset.test_idx

@@ -197,14 +197,14 @@ def evaluate_grid(
     import torch
 
     from spl_al.data import Dataset
-    from spl_al.experiment.steps import _model, _set_threads
+    from spl_al.experiment.steps import _set_threads, model_for
     from spl_al.training import evaluate
 
     started = time.perf_counter()
     _set_threads(threads)
     dataset = Dataset.load(observed_path)
     grid = load_grid(shard_paths)
-    model = _model(dataset, model_cfg)
+    model = model_for(dataset, model_cfg)
     model.load_state_dict(torch.load(model_path, map_location="cpu", weights_only=True))
     c, n = grid["depth"].shape[:2]
     depth = grid["depth"].reshape(c * n, *grid["depth"].shape[2:])

@@ -255,11 +255,15 @@ def _set_threads(threads: int | None) -> None:
         torch.set_num_threads(int(threads))
 
 
-def _model(dataset, model_cfg: dict):
-    from spl_al.models import build_model
+def model_for(dataset, model_cfg: dict):
+    """The configured model (``model_cfg``: arch and its parameters) for ``dataset``;
+    an architecture that needs the scan grid (PointNet++) gets ``dataset.grid()``."""
+    from spl_al.models import build_model, needs_grid
 
     cfg = dict(model_cfg)
     arch = cfg.pop("arch", None)
+    if needs_grid(dataset.task, arch):
+        cfg["grid"] = dataset.grid()
     return build_model(dataset.task, len(dataset.classes), arch=arch, **cfg)
 
 
@@ -276,7 +280,7 @@ def _fit_and_evaluate(
     depth, valid = dataset.groups(dataset.train_idx[pool_idx], n_variants=n_variants)
     targets = np.repeat(given, depth.shape[1], axis=0)
     images = depth.reshape(-1, *depth.shape[2:])
-    model = _model(dataset, setup["train"]["model"])
+    model = model_for(dataset, setup["train"]["model"])
     model = train(
         model,
         images,
@@ -390,7 +394,7 @@ def train_round(
                 f"{fit_path} trained on {fit['train_images']} images, but round 0 of "
                 f"{method_name} trains on {pool_idx.size * (m + 1)}; remove it to retrain."
             )
-        model = _model(dataset, setup["train"]["model"])
+        model = model_for(dataset, setup["train"]["model"])
         model.load_state_dict(torch.load(weights, map_location="cpu", weights_only=True))
         model.eval()
         metrics, n_images, train_seconds = (
@@ -480,7 +484,7 @@ def score_round(
     _set_threads(threads)
     dataset = Dataset.load(dataset_path)
     method = MethodSpec(name=method_name, **{"params": {}, **setup["method"]})
-    model = _model(dataset, setup["train"]["model"])
+    model = model_for(dataset, setup["train"]["model"])
     model.load_state_dict(torch.load(model_path, map_location="cpu", weights_only=True))
     return score_pool(model, dataset, read_labeled(labeled_path), method, out_path, device)
 

@@ -7,6 +7,12 @@ Public API:
   (B, C, H, W), features (B, d, H, W)); its ``task``, ``n_classes`` and
   ``feature_dim`` attributes say what it is.
 - ``to_input(depth_m, valid)``: the (B, 2, H, W) input (normalised depth, validity).
+- ``model_input(model, depth_m, valid)``: the input ``model`` takes, by its
+  ``input_kind``: "normalised" (``to_input``, every image network) or "range_m"
+  (``to_range_input``: range in metres and validity, for PointNet++). Training,
+  prediction and scoring all build their input with it.
+- ``needs_grid(task, arch)``: whether the architecture is built with the scan grid
+  of the images (``grid=dataset.grid()``; PointNet++ turns pixels into points with it).
 - ``reset_parameters(model, seed)``: deterministic re-initialisation.
 - ``ARCHS``: the architectures per task (the first one is the task's default).
 """
@@ -17,14 +23,36 @@ import torch
 from torch import nn
 
 from spl_al.models.classifier import ResNet, SmallCNN
-from spl_al.models.normalise import to_input
+from spl_al.models.normalise import to_input, to_range_input
+from spl_al.models.pointnet import PointNet2Seg
 from spl_al.models.segmenter import UNet
 
 TASKS = ("classification", "segmentation")
 ARCHS: dict[str, dict[str, type[nn.Module]]] = {
     "classification": {"smallcnn": SmallCNN, "resnet18": ResNet},
-    "segmentation": {"unet": UNet},
+    "segmentation": {"unet": UNet, "pointnet2": PointNet2Seg},
 }
+INPUT_KINDS = {"normalised": to_input, "range_m": to_range_input}
+
+
+def model_input(model: nn.Module, depth_m, valid=None) -> torch.Tensor:
+    """The (B, 2, H, W) input ``model`` takes for (B, H, W) depth images (NaN at voids).
+
+    By the model's ``input_kind`` attribute (default "normalised"): ``to_input``
+    (robustly standardised depth, validity) or ``to_range_input`` (range in metres,
+    validity).
+    """
+    kind = getattr(model, "input_kind", "normalised")
+    if kind not in INPUT_KINDS:
+        raise ValueError(f"model input_kind must be one of {sorted(INPUT_KINDS)}, got {kind!r}.")
+    return INPUT_KINDS[kind](depth_m, valid)
+
+
+def needs_grid(task: str, arch: str | None) -> bool:
+    """Whether ``build_model(task, ..., arch)`` needs ``grid=`` (the images' scan grid)."""
+    archs = ARCHS.get(task, {})
+    cls = archs.get(next(iter(archs)) if arch is None and archs else arch)
+    return bool(getattr(cls, "needs_grid", False))
 
 
 def reset_parameters(model: nn.Module, seed: int) -> None:
@@ -55,7 +83,8 @@ def build_model(
         task: "classification" or "segmentation".
         n_classes: number of classes C (>= 2).
         arch: a name in ``ARCHS[task]``; None picks the task's default
-            ("smallcnn" for classification, "unet" for segmentation).
+            ("smallcnn" for classification, "unet" for segmentation; "pointnet2"
+            is PointNet++ on the images' points and needs ``grid``).
         seed: if given, the weights are initialised from it (``reset_parameters``) and
             the global torch RNG is left untouched; otherwise torch's global RNG is used.
         **arch_params: keyword arguments of the architecture (e.g. width, stem, depth).
@@ -85,11 +114,16 @@ def build_model(
 
 __all__ = [
     "ARCHS",
+    "INPUT_KINDS",
     "TASKS",
+    "PointNet2Seg",
     "ResNet",
     "SmallCNN",
     "UNet",
     "build_model",
+    "model_input",
+    "needs_grid",
     "reset_parameters",
     "to_input",
+    "to_range_input",
 ]

@@ -74,3 +74,16 @@ def to_input(depth_m, valid=None) -> torch.Tensor:
     z = ((flat - centre[:, None]) / scale[:, None]).clamp(-CLIP, CLIP)
     z = torch.nan_to_num(z, nan=0.0).reshape(depth.shape)
     return torch.stack([z, ok.to(torch.float32)], dim=1)
+
+
+def to_range_input(depth_m, valid=None) -> torch.Tensor:
+    """Network input in metres for point networks: (B, 2, H, W) = (range, validity).
+
+    Same arguments and validity rule as ``to_input``, but channel 0 keeps the metric
+    range (0 at voids) instead of standardising it: a point network needs metres to
+    place each return at range * ray direction.
+    """
+    x = to_input(depth_m, valid)  # validates shapes and builds the validity channel
+    depth = _as_tensor(depth_m, torch.float32).to(x.device).reshape(x[:, 0].shape)
+    ok = x[:, 1] > 0
+    return torch.stack([torch.where(ok, depth, 0.0), x[:, 1]], dim=1)

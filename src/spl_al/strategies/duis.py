@@ -46,6 +46,19 @@ def margin_and_inconsistency(probs, valid=None, image_valid=None) -> tuple[np.nd
         the outer mean over the images that hold at least one such unit. Without
         ``image_valid`` every image holds every unit (classification; the paper's
         equations). A group without valid units gets NaN for both.
+
+        Point clouds (PointNet++, ``arch: pointnet2``): the units are pixels and the
+        points of image m are its valid pixels V_m, each point keeping its pixel
+        index, so with P_m the point set of image m (P_0 the observed cloud) the same
+        equations read, per group,
+
+            qbar(u)  = mean_{m : u in P_m} q_m(u)                       (u in P_0)
+            gamma    = mean_{u in P_0} [ qbar(u, top1) - qbar(u, top2) ]
+            d        = mean_m  mean_{u in P_m and P_0}  KL( q_m(u) || qbar(u) )
+
+        (margin over the observed cloud's points; a variant's KL over the points it
+        shares with the observed cloud; qbar over the images that have the point).
+        tests/test_pointnet.py checks a hand-computed case.
     """
     p = check_probs(probs, 4)
     g, n_images, n_units, _ = p.shape

@@ -14,7 +14,7 @@ import torch.nn.functional as F
 from torch import nn
 
 from spl_al.labels import IGNORE_INDEX
-from spl_al.models import reset_parameters, to_input
+from spl_al.models import model_input, reset_parameters
 from spl_al.training.config import TrainConfig, deterministic_algorithms, resolve_device
 
 
@@ -180,7 +180,7 @@ def train(
     if cfg.num_threads is not None:
         torch.set_num_threads(cfg.num_threads)
 
-    x_all = to_input(depth_m, valid)
+    x_all = model_input(model, depth_m, valid)
     y_all = torch.from_numpy(t)
     if task == "segmentation":
         y_all = torch.where(x_all[:, 1] > 0, y_all, IGNORE_INDEX)  # voids carry no label

@@ -9,7 +9,7 @@ import numpy as np
 import torch
 from torch import nn
 
-from spl_al.models import to_input
+from spl_al.models import model_input
 from spl_al.training.config import resolve_device
 
 FEATURE_MODES = ("image", "pixel", "none")
@@ -40,7 +40,8 @@ def iter_forward(
     with torch.inference_mode():
         for start in range(0, n, batch_size):
             stop = min(start + batch_size, n)
-            x = to_input(np.asarray(depth_m[start:stop]), np.asarray(valid[start:stop])).to(dev)
+            x = model_input(model, np.asarray(depth_m[start:stop]), np.asarray(valid[start:stop]))
+            x = x.to(dev)
             logits, features = model(x)
             yield start, torch.softmax(logits.float(), dim=1), features.float(), x[:, 1] > 0
 
