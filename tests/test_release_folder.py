@@ -56,7 +56,8 @@ def test_subset_per_class_and_levels_file(release, tmp_path):
 def test_release_layout_runs_through_every_table(release, tmp_path):
     override = tmp_path / "release.yaml"
     override.write_text(
-        f"datasets:\n  street_seg: null\n  real_cls: {{path: {release}, n_per_class: 3}}\n"
+        "datasets:\n  street_seg: null\n  street_pc: null\n"
+        f"  real_cls: {{path: {release}, n_per_class: 3}}\n"
     )
     results = tmp_path / "results"
     cmd = [sys.executable, "-m", "snakemake", "-j2", "--configfile", "config/ci.yaml"]
