@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import numpy as np
 import pytest
 
@@ -183,3 +185,48 @@ def test_classes_are_learnable_from_shape_not_from_distance_and_size():
     )
     assert shape_acc >= 0.75, f"shape classifier {shape_acc:.2f}"
     assert trivial_acc <= shape_acc - 0.15, f"depth+size {trivial_acc:.2f} vs shape {shape_acc:.2f}"
+
+
+def _frame_cues(depth_m, valid):
+    """What a frame says without its shape: distance statistics of its returns, how many
+    pixels return and how many are void."""
+    z = depth_m[valid]
+    return [
+        np.log(np.median(z)),
+        np.log(z.mean()),
+        np.log(np.percentile(z, 10)),
+        np.log(np.percentile(z, 90)),
+        valid.sum(),
+        1.0 - valid.mean(),
+    ]
+
+
+@pytest.mark.parametrize("name, image_shape", [("real_cls", (32, 32)), ("synth_cls", (18, 32))])
+def test_default_standins_are_told_apart_by_shape_not_by_distance_or_voids(name, image_shape):
+    """The default config's stand-ins, observed through the photon engine: a classifier
+    on the frame's non-shape cues (distance statistics, returning pixels, void fraction)
+    stays at least 25 points below one that also sees the object's shape, so what a
+    learner gains on them is shape, as on the real captures."""
+    import yaml
+    from sklearn.ensemble import ExtraTreesClassifier, RandomForestClassifier
+
+    from spl_al.data import make_classification_dataset
+
+    config = yaml.safe_load((Path(__file__).parents[1] / "config" / "config.yaml").read_text())
+    synthesis = {**config["datasets"][name]["synthesis"], "n_per_class": 40}
+    d = make_classification_dataset(**{**synthesis, "image_shape": image_shape}, workers=1)
+    cues = np.array([_frame_cues(d.depth_m[i], d.valid[i]) for i in range(len(d))])
+    # The object's returns locate the crop (a few low-photon frames lose them all).
+    mask = [m if m.any() else v for m, v in zip(d.object_mask & d.valid, d.valid, strict=True)]
+    shape = np.array(
+        [
+            np.concatenate([_shape_features(d.depth_m[i], mask[i], d.valid[i]), cues[i]])
+            for i in range(len(d))
+        ]
+    )
+    tr, te, y = d.train_idx, d.test_idx, d.labels
+    cue_clf = RandomForestClassifier(300, min_samples_leaf=2, random_state=0)
+    cue_acc = (cue_clf.fit(cues[tr], y[tr]).predict(cues[te]) == y[te]).mean()
+    shape_clf = ExtraTreesClassifier(500, random_state=0).fit(shape[tr], y[tr])
+    shape_acc = (shape_clf.predict(shape[te]) == y[te]).mean()
+    assert cue_acc <= shape_acc - 0.25, f"{name}: cues {cue_acc:.2f} vs shape {shape_acc:.2f}"
