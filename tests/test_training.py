@@ -36,8 +36,13 @@ def test_training_is_deterministic_for_a_seed():
     d, v = depth[:, 0], valid[:, 0]
     runs = []
     for seed in (3, 3, 4):
-        model = build_model("classification", 3, width=4)  # from_scratch: init comes from seed
+        # from_scratch: init comes from seed; dropout draws from torch's global RNG,
+        # which train seeds too (and leaves as the caller had it).
+        model = build_model("classification", 3, width=4, dropout=0.5)
+        torch.manual_seed(100 + len(runs))
+        before = torch.random.get_rng_state()
         runs.append(train(model, d, v, y, FAST, seed=seed, device="cpu", log=io.StringIO()))
+        assert torch.equal(torch.random.get_rng_state(), before)
     assert _same_weights(runs[0], runs[1])
     assert not _same_weights(runs[0], runs[2])
     p0, p1 = predict(runs[0], d, v, device="cpu"), predict(runs[1], d, v, device="cpu")

@@ -150,7 +150,8 @@ def train(
     (segmentation ignores IGNORE_INDEX and every invalid pixel). With
     ``cfg.from_scratch`` the weights are first re-initialised from ``seed``; batch
     order, flips and shifts come from a CPU
-    ``torch.Generator`` seeded with ``seed``, so the same seed, data, device and thread
+    ``torch.Generator`` seeded with ``seed`` and dropout from the global RNG seeded from
+    it, so the same seed, data, device and thread
     count give the same weights bit for bit. The whole set lives on the device as one
     tensor and batches are index lookups (no DataLoader overhead).
 
@@ -213,8 +214,16 @@ def train(
     model.train()
     step = 0
     start = time.perf_counter()
+    # Dropout draws from torch's global RNG, whose start seed differs per process: seed
+    # it from ``seed`` (in a fork, so the caller's stream is left as it was).
+    forked = (
+        [dev.index if dev.index is not None else torch.cuda.current_device()]
+        if (dev.type == "cuda")
+        else []
+    )
     try:
-        with deterministic_algorithms():
+        with torch.random.fork_rng(devices=forked), deterministic_algorithms():
+            torch.manual_seed(int(np.random.SeedSequence([int(seed), 1]).generate_state(1)[0]))
             for epoch in range(1, n_epochs + 1):
                 perm = torch.randperm(n, generator=gen)
                 loss_sum = torch.zeros((), device=dev)
