@@ -5,7 +5,13 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from spl_al.data import Dataset, make_classification_dataset, make_segmentation_dataset, observe
+from spl_al.data import (
+    SCENE_FIELDS,
+    Dataset,
+    make_classification_dataset,
+    make_segmentation_dataset,
+    observe,
+)
 from spl_al.data.observe import assign_conditions, condition_set
 from spl_al.data.pictures import contact_sheet, variants_sheet
 from spl_al.data.storage import choose_depth_step
@@ -120,6 +126,18 @@ def test_save_load_roundtrip(cls_data, tmp_path, precision):
         np.testing.assert_array_equal(np.isnan(a), np.isnan(b))
         assert np.nanmax(np.abs(a - b)) <= tol
     np.testing.assert_allclose(back.reflectance, cls_data.reflectance, rtol=1e-3, atol=1e-3)
+
+
+def test_load_can_skip_the_scene(cls_data, tmp_path):
+    """Training and scoring jobs load without the clean scene: the same images, no
+    scene arrays; asking to skip a field they need is refused."""
+    path = cls_data.save(tmp_path / "ds.npz")
+    full, lean = Dataset.load(path), Dataset.load(path, skip=SCENE_FIELDS)
+    np.testing.assert_array_equal(lean.depth_m, full.depth_m)
+    np.testing.assert_array_equal(lean.labels, full.labels)
+    assert all(getattr(lean, name) is None for name in SCENE_FIELDS)
+    with pytest.raises(ValueError, match=r"can skip the scene fields .* not \['labels'\]"):
+        Dataset.load(path, skip=["labels"])
 
 
 def test_load_refuses_other_files(tmp_path):

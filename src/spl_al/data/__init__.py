@@ -13,7 +13,7 @@ Public API:
 - ``contact_sheet``, ``variants_sheet``: PNG pictures of a dataset.
 """
 
-from spl_al.data.dataset import LEVELS, Dataset
+from spl_al.data.dataset import LEVELS, SCENE_FIELDS, Dataset
 from spl_al.data.external import load_folder
 from spl_al.data.observe import DEFAULT_LEVELS, DEFAULT_SBR, condition_set, observe
 from spl_al.data.pictures import contact_sheet, variants_sheet
@@ -24,6 +24,7 @@ __all__ = [
     "DEFAULT_LEVELS",
     "DEFAULT_SBR",
     "LEVELS",
+    "SCENE_FIELDS",
     "Dataset",
     "condition_set",
     "contact_sheet",

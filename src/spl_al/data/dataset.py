@@ -70,6 +70,11 @@ _PLAIN_FIELDS = (
 )
 
 
+# What the clean scene adds to the observed images: only data synthesis, SIV, the
+# robustness grid and the pictures read it; training and scoring jobs load without it.
+SCENE_FIELDS = ("clean_depth_m", "reflectance", "clean_reflectance", "object_mask")
+
+
 def sensor_to_dict(sensor: SensorParams | None) -> dict | None:
     return None if sensor is None else dataclasses.asdict(sensor)
 
@@ -423,9 +428,20 @@ class Dataset:
         return storage.atomic_savez(path, arrays, meta)
 
     @classmethod
-    def load(cls, path) -> Dataset:
-        """Read a dataset written by ``save``."""
-        arrays, meta = storage.read_npz(path, FORMAT)
+    def load(cls, path, skip=()) -> Dataset:
+        """Read a dataset written by ``save``.
+
+        ``skip``: optional fields to leave out (None in the result), e.g.
+        ``SCENE_FIELDS``; they are not even decompressed, which is most of a load.
+        """
+        unknown = set(skip) - set(SCENE_FIELDS)
+        if unknown:
+            raise ValueError(
+                f"Dataset.load can skip the scene fields {list(SCENE_FIELDS)}, "
+                f"not {sorted(unknown)}."
+            )
+        keys = {**_DEPTH_FIELDS, **_HALF_FIELDS, **{n: n for n in _PLAIN_FIELDS}}
+        arrays, meta = storage.read_npz(path, FORMAT, skip={keys[a] for a in skip})
         if meta.get("version") != VERSION:
             raise ValueError(
                 f"{path}: dataset format version {meta.get('version')}, expected {VERSION}."

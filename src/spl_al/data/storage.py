@@ -44,9 +44,10 @@ def encode_depth(depth_m: np.ndarray, step_m: float) -> np.ndarray:
 def decode_depth(code: np.ndarray, step_m: float) -> np.ndarray:
     """float32 depth of uint16 codes, NaN at the void code."""
     code = np.asarray(code)
-    return np.where(code == VOID_CODE, np.nan, code.astype(np.float32) * np.float32(step_m)).astype(
-        np.float32
-    )
+    depth = code.astype(np.float32)  # one pass and one array: jobs decode on every load
+    depth *= np.float32(step_m)
+    depth[code == VOID_CODE] = np.nan
+    return depth
 
 
 def atomic_savez(path, arrays: dict[str, np.ndarray], meta: dict, compress: bool = True) -> Path:
@@ -70,15 +71,16 @@ def atomic_savez(path, arrays: dict[str, np.ndarray], meta: dict, compress: bool
     return atomic_write(path, write)
 
 
-def read_npz(path, kind: str) -> tuple[dict[str, np.ndarray], dict]:
+def read_npz(path, kind: str, skip=()) -> tuple[dict[str, np.ndarray], dict]:
     """Arrays and JSON meta of a file written by ``atomic_savez``; ``kind`` names the
-    expected ``meta["format"]`` for the error message."""
+    expected ``meta["format"]`` for the error message. Arrays named in ``skip`` are
+    neither read nor decompressed."""
     path = Path(path)
     if not path.is_file():
         raise ValueError(f"{path}: no such file (expected an {kind} .npz).")
     try:
         with np.load(path, allow_pickle=False) as z:
-            arrays = {k: z[k] for k in z.files}
+            arrays = {k: z[k] for k in z.files if k not in skip}
     except (OSError, ValueError, zipfile.BadZipFile, EOFError) as exc:
         raise ValueError(f"{path}: cannot be read as an {kind} .npz file ({exc}).") from None
     if "meta_json" not in arrays:

@@ -196,13 +196,13 @@ def evaluate_grid(
     """
     import torch
 
-    from spl_al.data import Dataset
+    from spl_al.data import SCENE_FIELDS, Dataset
     from spl_al.experiment.steps import _set_threads, model_for
     from spl_al.training import evaluate
 
     started = time.perf_counter()
     _set_threads(threads)
-    dataset = Dataset.load(observed_path)
+    dataset = Dataset.load(observed_path, skip=SCENE_FIELDS)
     grid = load_grid(shard_paths)
     model = model_for(dataset, model_cfg)
     model.load_state_dict(torch.load(model_path, map_location="cpu", weights_only=True))
@@ -243,9 +243,9 @@ def evaluate_grid(
 
 def training_range(observed_path) -> dict:
     """MSPPP and SBR range of the training split's observed images."""
-    from spl_al.data import Dataset
+    from spl_al.data import SCENE_FIELDS, Dataset
 
-    d = Dataset.load(observed_path)
+    d = Dataset.load(observed_path, skip=SCENE_FIELDS)
     tr = d.train_idx
     return {
         "msppp": [float(np.nanmin(d.msppp[tr])), float(np.nanmax(d.msppp[tr]))],

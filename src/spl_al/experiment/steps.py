@@ -219,10 +219,10 @@ def initial_set(dataset_path, al: dict, seed: int, out_path) -> dict:
     Reads only the dataset's split sizes (and, when stratified, the training labels:
     drawing the initial set is the oracle's job, not a strategy's).
     """
-    from spl_al.data import Dataset
+    from spl_al.data import SCENE_FIELDS, Dataset
     from spl_al.pool import initial_labeled_set
 
-    dataset = Dataset.load(dataset_path)
+    dataset = Dataset.load(dataset_path, skip=SCENE_FIELDS)
     stratified = bool(al.get("stratified_initial", False)) and dataset.task == "classification"
     labels = dataset.labels[dataset.train_idx] if stratified else None
     idx = initial_labeled_set(
@@ -328,10 +328,10 @@ def train_initial(
     """
     import torch
 
-    from spl_al.data import Dataset
+    from spl_al.data import SCENE_FIELDS, Dataset
 
     _set_threads(threads)
-    dataset = Dataset.load(dataset_path)
+    dataset = Dataset.load(dataset_path, skip=SCENE_FIELDS)
     pool_idx = read_labeled(labeled_path)
     given = dataset.labels[dataset.train_idx[pool_idx]]
     model, metrics, n_images, seconds = _fit_and_evaluate(
@@ -378,11 +378,11 @@ def train_round(
     """
     import torch
 
-    from spl_al.data import LEVELS, Dataset
+    from spl_al.data import LEVELS, SCENE_FIELDS, Dataset
 
     _set_threads(threads)
     started = time.perf_counter()
-    dataset = Dataset.load(dataset_path)
+    dataset = Dataset.load(dataset_path, skip=SCENE_FIELDS)
     method = MethodSpec(name=method_name, **{"params": {}, **setup["method"]})
     pool_idx = read_labeled(labeled_path)
     m = _n_variants(method, dataset) if method.use_variants else 0
@@ -479,10 +479,10 @@ def score_round(
     """``score_pool`` for a saved model: rescore a round without retraining."""
     import torch
 
-    from spl_al.data import Dataset
+    from spl_al.data import SCENE_FIELDS, Dataset
 
     _set_threads(threads)
-    dataset = Dataset.load(dataset_path)
+    dataset = Dataset.load(dataset_path, skip=SCENE_FIELDS)
     method = MethodSpec(name=method_name, **{"params": {}, **setup["method"]})
     model = model_for(dataset, setup["train"]["model"])
     model.load_state_dict(torch.load(model_path, map_location="cpu", weights_only=True))
