@@ -1,15 +1,17 @@
-"""Round steps: round 0 fitted once and shared gives what training in place gives."""
+"""Round steps: round 0 fitted and scored once and shared gives what training and
+scoring in place give."""
 
 from __future__ import annotations
 
 import numpy as np
 import pytest
+import torch
 from al_synthetic import shapes_groups
 
-from spl_al.atomic import read_json
 from spl_al.data import Dataset
 from spl_al.experiment.steps import train_initial, train_round, write_initial_set
 from spl_al.strategies import StrategyInputs
+from spl_al.strategies.inputs import ARRAY_FIELDS
 
 SETUP = {
     "train": {
@@ -45,42 +47,59 @@ def _dataset(tmp_path):
 
 @pytest.mark.parametrize(
     ("method", "m"),
-    [({"strategy": "margin"}, 0), ({"strategy": "duis", "use_variants": True}, 2)],
+    [
+        ({"strategy": "margin"}, 0),
+        ({"strategy": "coreset"}, 0),
+        ({"strategy": "badge"}, 0),
+        ({"strategy": "duis", "use_variants": True}, 2),
+        ({"strategy": "entropy", "use_variants": True}, 2),
+        # trains on observed images, scores on variants: not in the shared scores
+        ({"strategy": "duis"}, 0),
+    ],
 )
-def test_shared_round0_fit_equals_training_in_place(tmp_path, method, m):
+def test_shared_round0_equals_training_and_scoring_in_place(tmp_path, method, m):
     data, labeled = _dataset(tmp_path)
     setup = {**SETUP, "method": method}
     own = train_round(
         data, labeled, setup, "toy", "own", 1, 0, tmp_path / "own.pt", tmp_path / "own.json",
         tmp_path / "own.npz", device="cpu", log=tmp_path / "own.log",
     )  # fmt: skip
-    train_initial(
+    fit = train_initial(
         data, labeled, SETUP, m, 1, tmp_path / "init.pt", tmp_path / "fit.json",
-        device="cpu", log=tmp_path / "init.log",
+        tmp_path / "init.npz", device="cpu", log=tmp_path / "init.log",
     )  # fmt: skip
+    assert fit["dataset"] == {
+        "task": "classification", "n_samples": 30, "n_train": 24, "n_variants": 2,
+        "synthetic_standin": False,
+    }  # fmt: skip
     shared = train_round(
         data, labeled, setup, "toy", "own", 1, 0, tmp_path / "shared.pt",
         tmp_path / "shared.json", tmp_path / "shared.npz", device="cpu",
-        initial_fit=(tmp_path / "init.pt", tmp_path / "fit.json"),
+        initial_fit=(tmp_path / "init.pt", tmp_path / "fit.json", tmp_path / "init.npz"),
     )  # fmt: skip
-    assert shared["value"] == own["value"]
-    assert shared["train_images"] == own["train_images"] == 6 * (m + 1)
-    assert read_json(tmp_path / "shared.json")["details"] == own["details"]
+    timing = {"train_seconds", "score_seconds", "seconds"}
+    assert {k: v for k, v in shared.items() if k not in timing} == {
+        k: v for k, v in own.items() if k not in timing
+    }
+    assert shared["train_images"] == 6 * (m + 1)
+    weights = [torch.load(tmp_path / f, weights_only=True) for f in ("init.pt", "shared.pt")]
+    assert all(torch.equal(weights[0][k], weights[1][k]) for k in weights[0])
     a, b = StrategyInputs.load(tmp_path / "own.npz"), StrategyInputs.load(tmp_path / "shared.npz")
-    for name in ("margin", "gamma", "inconsistency", "group_features"):
-        if getattr(a, name) is not None:
-            np.testing.assert_array_equal(getattr(a, name), getattr(b, name))
-    assert a.margin is not None or a.inconsistency is not None
+    for name in ("unlabeled_idx", "labeled_idx", *ARRAY_FIELDS):
+        if getattr(a, name) is None:
+            assert getattr(b, name) is None, f"{name}: more than the strategy needs"
+        else:
+            np.testing.assert_array_equal(getattr(a, name), getattr(b, name), err_msg=name)
 
 
 def test_a_shared_fit_of_other_images_is_refused(tmp_path):
     data, labeled = _dataset(tmp_path)
     train_initial(data, labeled, SETUP, 0, 1, tmp_path / "init.pt", tmp_path / "fit.json",
-                  device="cpu", log=tmp_path / "init.log")  # fmt: skip
+                  tmp_path / "init.npz", device="cpu", log=tmp_path / "init.log")  # fmt: skip
     setup = {**SETUP, "method": {"strategy": "duis", "use_variants": True}}
     with pytest.raises(ValueError, match="trained on 6 images, but round 0 of duis trains on 18"):
         train_round(
             data, labeled, setup, "toy", "duis", 1, 0, tmp_path / "m.pt", tmp_path / "m.json",
             tmp_path / "s.npz", device="cpu",
-            initial_fit=(tmp_path / "init.pt", tmp_path / "fit.json"),
+            initial_fit=(tmp_path / "init.pt", tmp_path / "fit.json", tmp_path / "init.npz"),
         )  # fmt: skip

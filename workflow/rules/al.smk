@@ -1,8 +1,9 @@
 # Active-learning rounds per dataset x method x seed: train (fit, evaluate, score) -> query.
 # Round r trains on round r's labeled set (round 0: the seed's initial set, shared by
-# every method; train_initial fits its model once per number of variants per group)
-# and scores the unlabeled pool with the model still in memory; query of round r + 1
-# selects from those scores and writes round r + 1's labeled set.
+# every method; train_initial fits and scores its model once per number of variants
+# per group, and each method's round 0 copies its part) and scores the unlabeled pool
+# with the model still in memory; query of round r + 1 selects from those scores and
+# writes round r + 1's labeled set.
 
 
 rule initial_set:
@@ -35,6 +36,7 @@ rule train_initial:
     output:
         model=f"{RESULTS}/{{dataset}}/initial/seed{{seed}}/m{{m}}/model.pt",
         fit=f"{RESULTS}/{{dataset}}/initial/seed{{seed}}/m{{m}}/fit.json",
+        scores=f"{RESULTS}/{{dataset}}/initial/seed{{seed}}/m{{m}}/scores.npz",
     log:
         f"{RESULTS}/logs/{{dataset}}/initial_seed{{seed}}_m{{m}}_train.log",
     benchmark:

@@ -111,13 +111,18 @@ def initial_variants(wildcards):
 
 
 def initial_fit(wildcards):
-    """Round 0 of a simulated oracle is fitted once per seed and variants per group
-    (by train_initial): every method with the same start would train the same model.
+    """Round 0 of a simulated oracle is fitted and scored once per seed and variants
+    per group (by train_initial): every method with the same start would train the
+    same model.
     """
     if int(wildcards.round) != 0 or wildcards.dataset in HUMAN:
         return {}
     folder = f"{RESULTS}/{wildcards.dataset}/initial/seed{wildcards.seed}/m{initial_variants(wildcards)}"
-    return {"initial_model": f"{folder}/model.pt", "initial_fit": f"{folder}/fit.json"}
+    return {
+        "initial_model": f"{folder}/model.pt",
+        "initial_fit": f"{folder}/fit.json",
+        "initial_scores": f"{folder}/scores.npz",
+    }
 
 
 def previous_labeled(wildcards):

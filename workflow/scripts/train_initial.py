@@ -6,6 +6,7 @@ with job_log(
     snakemake.log[0],
     preload=(
         "spl_al.data",
+        "spl_al.scoring",
         "spl_al.training",
     ),
 ) as log:
@@ -17,6 +18,7 @@ with job_log(
         int(w.seed),
         snakemake.output.model,
         snakemake.output.fit,
+        snakemake.output.scores,
         device=snakemake.params.device,
         threads=snakemake.threads,
         log=log,

@@ -244,10 +244,6 @@ def write_initial_set(idx, seed: int, out_path) -> dict:
     return record
 
 
-def _n_variants(method: MethodSpec, dataset) -> int:
-    return dataset.n_variants if method.n_variants is None else int(method.n_variants)
-
-
 def _set_threads(threads: int | None) -> None:
     import torch
 
@@ -314,34 +310,161 @@ def train_initial(
     seed: int,
     model_path,
     fit_path,
+    scores_path=None,
     device: str = "auto",
     threads: int | None = None,
     log=None,
 ) -> dict:
-    """Round 0's training, done once per seed and number of variants per group.
+    """Round 0's training and scoring, done once per seed and number of variants per group.
 
     Every method starts from the seed's initial labeled set and trains with the same
     seed, so all methods that use ``n_variants`` variants per group (0: observed
     images only) would train the same model; ``train_round`` reuses this one instead
     (``initial_fit``). Writes the weights and ``fit_path`` (test metrics, training
-    images and seconds).
+    images and seconds, what a metrics record needs of the dataset). With
+    ``scores_path`` it also scores the unlabeled pool for every strategy at once:
+    every need on the observed images (batched as ``score_pool`` batches them for one
+    strategy, so each method's part is what it would compute itself) and, when
+    ``n_variants`` > 0, the group needs on the M = ``n_variants`` variants.
     """
     import torch
 
     from spl_al.data import SCENE_FIELDS, Dataset
+    from spl_al.scoring import compute_inputs
+    from spl_al.strategies import StrategyInputs
+    from spl_al.strategies.inputs import ARRAY_FIELDS, GROUP_NEEDS, NEEDS
 
     _set_threads(threads)
     dataset = Dataset.load(dataset_path, skip=SCENE_FIELDS)
     pool_idx = read_labeled(labeled_path)
     given = dataset.labels[dataset.train_idx[pool_idx]]
+    m = int(n_variants)
     model, metrics, n_images, seconds = _fit_and_evaluate(
-        dataset, pool_idx, given, setup, int(n_variants), seed, 0, device, threads, log
+        dataset, pool_idx, given, setup, m, seed, 0, device, threads, log
     )
     state = model.state_dict()
     atomic_write(model_path, lambda tmp: torch.save(state, tmp))
-    fit = {"metrics": metrics, "train_images": n_images, "train_seconds": round(seconds, 3)}
+    fit = {
+        "metrics": metrics,
+        "train_images": n_images,
+        "train_seconds": round(seconds, 3),
+        "dataset": _dataset_facts(dataset),
+        "score_variants": m,
+    }
+    if scores_path is not None:
+        started = time.perf_counter()
+        unlabeled = np.setdiff1d(np.arange(len(dataset.train_idx)), pool_idx)
+        passes = [(0, frozenset(NEEDS) - GROUP_NEEDS)] + ([(m, GROUP_NEEDS)] if m else [])
+        parts = {}
+        for m_scored, needs in passes:
+            depth, valid = dataset.groups(dataset.train_idx, n_variants=m_scored)
+            inputs = compute_inputs(model, needs, depth, valid, unlabeled, pool_idx, device=device)
+            parts.update(
+                {f: getattr(inputs, f) for f in ARRAY_FIELDS if getattr(inputs, f) is not None}
+            )
+        StrategyInputs(unlabeled_idx=unlabeled, labeled_idx=pool_idx, **parts).save(scores_path)
+        fit["score_seconds"] = round(time.perf_counter() - started, 3)
     write_json(fit, fit_path)
     return fit
+
+
+def _dataset_facts(dataset) -> dict:
+    """What a metrics record needs of a dataset, for steps that do not load it."""
+    return {
+        "task": dataset.task,
+        "n_samples": len(dataset),
+        "n_train": len(dataset.train_idx),
+        "n_variants": int(dataset.n_variants),
+        "synthetic_standin": bool(dataset.meta.get("synthetic_standin", False)),
+    }
+
+
+def _score_variants(method: MethodSpec, needs, n_variants: int) -> int:
+    """Variants per group a strategy's scoring runs on: its method's M when it needs
+    group predictions (DUIS), else 0 (observed images only)."""
+    from spl_al.strategies.inputs import GROUP_NEEDS
+
+    if not needs & GROUP_NEEDS:
+        return 0
+    return n_variants if method.n_variants is None else int(method.n_variants)
+
+
+def _metrics_record(
+    facts, setup, dataset_name, method_name, seed, round_, n_labeled, metrics, timing
+) -> dict:
+    """The per-round record ``spl_al.report`` aggregates (``facts``: ``_dataset_facts``)."""
+    from spl_al.data.dataset import LEVELS
+
+    key = "accuracy" if facts["task"] == "classification" else "miou"
+    ratio_of = setup.get("ratio_of", "train")
+    n_total = facts["n_samples"] if ratio_of == "all" else facts["n_train"]
+    return {
+        "dataset": dataset_name,
+        "method": method_name,
+        "seed": int(seed),
+        "round": int(round_),
+        "n_labeled": int(n_labeled),
+        "n_pool": facts["n_train"],
+        "n_total": int(n_total),
+        "ratio": n_labeled / n_total,
+        "metric": key,
+        "value": float(metrics[key]),
+        # Images without a known MSPPP level ("unknown": folder data without
+        # conditions) count in "value" but belong to no level.
+        "per_level": {
+            level: float(v[key])
+            for level, v in metrics.get("per_level", {}).items()
+            if v[key] is not None and level in LEVELS  # not "unknown" (external files)
+        },
+        "synthetic_standin": facts["synthetic_standin"],
+        **timing,
+        "details": metrics,
+    }
+
+
+def _shared_round0(
+    fit_path, scores_path, weights, method, pool_idx, model_path, out_scores, method_name
+):
+    """Round 0 from ``train_initial``'s files without torch: the fit record, the
+    weights copied, and the method's part of the shared scores; None when the shared
+    scores lack the variants this method scores on (it then scores itself)."""
+    import shutil
+
+    from spl_al.strategies import StrategyInputs, get
+    from spl_al.strategies.inputs import NEEDS
+
+    fit = read_json(fit_path)
+    m = _train_variants(method, fit["dataset"]["n_variants"])
+    _check_fit(fit, fit_path, pool_idx.size, m, method_name)
+    needs = get(method.strategy, **method.params).needs
+    if _score_variants(method, needs, fit["dataset"]["n_variants"]) not in (
+        0,
+        fit["score_variants"],
+    ):
+        return None
+    shared = StrategyInputs.load(scores_path)
+    if not np.array_equal(shared.labeled_idx, pool_idx):
+        raise ValueError(f"{scores_path} scored another labeled set than round 0 of {method_name}.")
+    wanted = {f for need in needs for f in NEEDS[need]}
+    arrays = {f: getattr(shared, f) for f in wanted if getattr(shared, f) is not None}
+    StrategyInputs(shared.unlabeled_idx, shared.labeled_idx, **arrays).save(out_scores)
+    atomic_write(model_path, lambda tmp: shutil.copyfile(weights, tmp))
+    return fit
+
+
+def _train_variants(method: MethodSpec, n_variants: int) -> int:
+    """Variants per labeled group a method trains on (0: observed images only)."""
+    if not method.use_variants:
+        return 0
+    return n_variants if method.n_variants is None else int(method.n_variants)
+
+
+def _check_fit(fit, fit_path, n_labeled, m, method_name) -> None:
+    if fit["train_images"] != n_labeled * (m + 1):
+        raise ValueError(
+            f"{fit_path} trained on {fit['train_images']} images, but round 0 of "
+            f"{method_name} trains on {n_labeled * (m + 1)}; remove it to retrain."
+        )
 
 
 def train_round(
@@ -366,9 +489,11 @@ def train_round(
 
     The training labels are the dataset's (the simulated oracle), or with
     ``labels_path`` the ones a person gave (``spl_al.labeling.save_labels``).
-    ``initial_fit`` = (weights, fit record) of ``train_initial``: round 0's model,
-    trained once for every method that trains like this one, is loaded instead of
-    trained again (the same seed and images give the same weights).
+    ``initial_fit`` = (weights, fit record[, shared scores]) of ``train_initial``:
+    round 0's model, trained once for every method that trains like this one, is
+    used instead of training again (the same seed and images give the same weights).
+    With the shared scores this step needs neither torch nor the dataset: it copies
+    the weights and the method's part of the scores.
 
     ``setup`` holds ``train`` (``model``: arch and its parameters, ``fit``: a
     TrainConfig) and ``method`` (MethodSpec fields). A method with ``use_variants``
@@ -376,24 +501,40 @@ def train_round(
     all with the group's label or mask. The metrics record is the one
     ``spl_al.report`` aggregates.
     """
-    import torch
-
-    from spl_al.data import LEVELS, SCENE_FIELDS, Dataset
-
-    _set_threads(threads)
     started = time.perf_counter()
-    dataset = Dataset.load(dataset_path, skip=SCENE_FIELDS)
     method = MethodSpec(name=method_name, **{"params": {}, **setup["method"]})
     pool_idx = read_labeled(labeled_path)
-    m = _n_variants(method, dataset) if method.use_variants else 0
+    if initial_fit is not None and len(initial_fit) == 3:
+        weights, fit_path, shared_scores = initial_fit
+        fit = _shared_round0(
+            fit_path, shared_scores, weights, method, pool_idx, model_path, scores_path,
+            method_name,
+        )  # fmt: skip
+        if fit is not None:
+            timing = {
+                "train_images": fit["train_images"],
+                "train_seconds": fit["train_seconds"],
+                "score_seconds": 0.0,
+                "seconds": round(time.perf_counter() - started, 3),
+            }
+            record = _metrics_record(
+                fit["dataset"], setup, dataset_name, method_name, seed, round_,
+                pool_idx.size, fit["metrics"], timing,
+            )  # fmt: skip
+            write_json(record, metrics_path)
+            return record
+
+    import torch
+
+    from spl_al.data import SCENE_FIELDS, Dataset
+
+    _set_threads(threads)
+    dataset = Dataset.load(dataset_path, skip=SCENE_FIELDS)
+    m = _train_variants(method, dataset.n_variants)
     if initial_fit is not None:
-        weights, fit_path = initial_fit
+        weights, fit_path = initial_fit[:2]
         fit = read_json(fit_path)
-        if fit["train_images"] != pool_idx.size * (m + 1):
-            raise ValueError(
-                f"{fit_path} trained on {fit['train_images']} images, but round 0 of "
-                f"{method_name} trains on {pool_idx.size * (m + 1)}; remove it to retrain."
-            )
+        _check_fit(fit, fit_path, pool_idx.size, m, method_name)
         model = model_for(dataset, setup["train"]["model"])
         model.load_state_dict(torch.load(weights, map_location="cpu", weights_only=True))
         model.eval()
@@ -415,34 +556,16 @@ def train_round(
     state = model.state_dict()
     atomic_write(model_path, lambda tmp: torch.save(state, tmp))
     scored = score_pool(model, dataset, pool_idx, method, scores_path, device=device)
-    key = "accuracy" if dataset.task == "classification" else "miou"
-    ratio_of = setup.get("ratio_of", "train")
-    n_total = len(dataset) if ratio_of == "all" else len(dataset.train_idx)
-    record = {
-        "dataset": dataset_name,
-        "method": method_name,
-        "seed": int(seed),
-        "round": int(round_),
-        "n_labeled": int(pool_idx.size),
-        "n_pool": len(dataset.train_idx),
-        "n_total": int(n_total),
-        "ratio": pool_idx.size / n_total,
-        "metric": key,
-        "value": float(metrics[key]),
-        # Images without a known MSPPP level ("unknown": folder data without
-        # conditions) count in "value" but belong to no level.
-        "per_level": {
-            level: float(v[key])
-            for level, v in metrics.get("per_level", {}).items()
-            if v[key] is not None and level in LEVELS  # not "unknown" (external files)
-        },
-        "synthetic_standin": bool(dataset.meta.get("synthetic_standin", False)),
+    timing = {
         "train_images": n_images,
         "train_seconds": round(train_seconds, 3),
         "score_seconds": scored["seconds"],
         "seconds": round(time.perf_counter() - started, 3),
-        "details": metrics,
     }
+    record = _metrics_record(
+        _dataset_facts(dataset), setup, dataset_name, method_name, seed, round_,
+        pool_idx.size, metrics, timing,
+    )  # fmt: skip
     write_json(record, metrics_path)
     return record
 
@@ -458,8 +581,7 @@ def score_pool(model, dataset, labeled: np.ndarray, method: MethodSpec, out_path
     # What to compute depends on the strategy alone, not on its parameters.
     strategy = get(method.strategy, **method.params)
     unlabeled = np.setdiff1d(np.arange(len(dataset.train_idx)), labeled)
-    needs_groups = bool(strategy.needs & {"margin_inconsistency", "group_features"})
-    m = _n_variants(method, dataset) if needs_groups else 0
+    m = _score_variants(method, strategy.needs, dataset.n_variants)
     depth, valid = dataset.groups(dataset.train_idx, n_variants=m)
     inputs = compute_inputs(model, strategy.needs, depth, valid, unlabeled, labeled, device=device)
     inputs.save(out_path)
