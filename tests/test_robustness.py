@@ -95,14 +95,17 @@ def test_evaluate_grid_and_tables(observed, tmp_path):
     model = model_for(Dataset.load(observed), {"arch": "smallcnn"})
     torch.save(model.state_dict(), tmp_path / "model.pt")
     evals = []
-    for method, seed in (("random", 1), ("random", 2), ("duis", 1), ("duis", 2)):
-        names = {"dataset": "d", "method": method, "seed": seed, "round": 1}
-        out = tmp_path / f"{method}{seed}.json"
-        rec = evaluate_grid(
-            observed, [shard], tmp_path / "model.pt", {"arch": "smallcnn"}, names, out
-        )
-        assert len(rec["cells"]) == 6 and all(0 <= c["value"] <= 1 for c in rec["cells"])
+    for method in ("random", "duis"):
+        names = {"dataset": "d", "method": method, "seeds": [1, 2], "round": 1}
+        out = tmp_path / f"{method}.json"
+        models = [tmp_path / "model.pt"] * 2
+        recs = evaluate_grid(observed, [shard], models, {"arch": "smallcnn"}, names, out)
+        assert [r["seed"] for r in recs] == [1, 2]
+        assert all(len(r["cells"]) == 6 and all(0 <= c["value"] <= 1 for c in r["cells"])
+                   for r in recs)  # fmt: skip
         evals.append(out)
+    with pytest.raises(ValueError, match="got 1 models for 2 seeds"):
+        evaluate_grid(observed, [shard], models[:1], {"arch": "smallcnn"}, names, out)
     frame = robustness_frame(evals)
     trained = {"msppp": [2, 10], "sbr": [0.2, 5]}
     table = robustness_table(frame, trained)

@@ -301,22 +301,25 @@ def robustness_shards(wildcards):
     )
 
 
+def budget_experiment(dataset):
+    return config["datasets"][dataset]["experiments"]["budget"]
+
+
 def robustness_evals(wildcards):
-    budget = config["datasets"][wildcards.dataset]["experiments"]["budget"]
     return expand(
-        f"{RESULTS}/{wildcards.dataset}/robustness/{{method}}/seed{{seed}}.json",
-        method=budget["methods"],
+        f"{RESULTS}/{wildcards.dataset}/robustness/{{method}}.json",
+        method=budget_experiment(wildcards.dataset)["methods"],
+    )
+
+
+def final_models(wildcards):
+    """The budget experiment's last-round models of this method, one per seed."""
+    budget = budget_experiment(wildcards.dataset)
+    last = int(budget["rounds"]) - 1
+    return expand(
+        f"{RESULTS}/{wildcards.dataset}/{wildcards.method}/seed{{seed}}/round{last}/model.pt",
         seed=budget["seeds"],
     )
-
-
-def final_model(wildcards):
-    """The budget experiment's last round's model of this method and seed."""
-    last = (
-        int(config["datasets"][wildcards.dataset]["experiments"]["budget"]["rounds"])
-        - 1
-    )
-    return f"{RESULTS}/{wildcards.dataset}/{wildcards.method}/seed{wildcards.seed}/round{last}/model.pt"
 
 
 def robustness_outputs(dataset):

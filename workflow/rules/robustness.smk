@@ -1,6 +1,7 @@
 # Condition robustness map: the test split re-observed over a grid of MSPPP x SBR
-# (once per dataset, in shards), each budget method's final-round model evaluated on
-# it per seed (forward passes only), then tables, heatmaps and the difference map.
+# (once per dataset, in shards), each budget method's final-round models (every seed,
+# one job per method) evaluated on it (forward passes only), then tables, heatmaps and
+# the difference map.
 
 
 rule robustness_grid:
@@ -28,13 +29,13 @@ rule robustness_eval:
     input:
         data=f"{RESULTS}/{{dataset}}/data/observed.npz",
         grid=robustness_shards,
-        model=final_model,
+        models=final_models,
     output:
-        f"{RESULTS}/{{dataset}}/robustness/{{method}}/seed{{seed}}.json",
+        f"{RESULTS}/{{dataset}}/robustness/{{method}}.json",
     log:
-        f"{RESULTS}/logs/{{dataset}}/{{method}}/seed{{seed}}/robustness_eval.log",
+        f"{RESULTS}/logs/{{dataset}}/{{method}}/robustness_eval.log",
     benchmark:
-        f"{RESULTS}/benchmarks/{{dataset}}/{{method}}/seed{{seed}}/robustness_eval.tsv"
+        f"{RESULTS}/benchmarks/{{dataset}}/{{method}}/robustness_eval.tsv"
     conda:
         "../envs/spl-al.yaml"
     threads: config["threads_per_job"]
@@ -47,11 +48,8 @@ rule robustness_eval:
         names=lambda w: {
             "dataset": w.dataset,
             "method": w.method,
-            "seed": int(w.seed),
-            "round": int(
-                config["datasets"][w.dataset]["experiments"]["budget"]["rounds"]
-            )
-            - 1,
+            "seeds": budget_experiment(w.dataset)["seeds"],
+            "round": int(budget_experiment(w.dataset)["rounds"]) - 1,
         },
         device=config["device"],
     script:

@@ -5,7 +5,7 @@ with job_log(snakemake.log[0], preload=("spl_al.data", "spl_al.training")):
     evaluate_grid(
         snakemake.input.data,
         snakemake.input.grid,
-        snakemake.input.model,
+        snakemake.input.models,
         snakemake.params.model,
         snakemake.params.names,
         snakemake.output[0],

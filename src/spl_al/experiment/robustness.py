@@ -11,8 +11,9 @@ Three steps, one per workflow rule:
    reconstructed reflectivity (``spl_al.variants``): what the grid then shows is the
    model under SIV's imitation of a condition, and every output says so
    (``source``: "clean" or "siv").
-2. ``evaluate_grid``: one method x seed: its final round's ``model.pt`` on every cell
-   (forward passes only, one pass over the whole grid).
+2. ``evaluate_grid``: one method, every seed: each seed's final-round ``model.pt`` on
+   every cell (forward passes only, one pass over the whole grid per model; one job
+   per method, so the dataset, grid and torch load once for all its seeds).
 3. ``robustness_report``: ``tables/robustness.csv`` (mean, std, n per method and cell),
    ``tables/robustness_diff.csv`` (DUIS minus the best baseline per cell, paired over
    seeds, ``spl_al.report.stats``), a heatmap per method and the difference map.
@@ -25,6 +26,7 @@ shard count or the other cells of the grid.
 from __future__ import annotations
 
 import time
+from pathlib import Path
 
 import numpy as np
 import pandas as pd
@@ -181,18 +183,20 @@ def load_grid(shard_paths) -> dict:
 def evaluate_grid(
     observed_path,
     shard_paths,
-    model_path,
+    model_paths,
     model_cfg: dict,
     names: dict,
     out_path,
     device: str = "auto",
     threads: int | None = None,
     batch_size: int = 256,
-) -> dict:
-    """Metric of one saved model on every cell of the grid, written as JSON.
+) -> list[dict]:
+    """Metric of saved models on every cell of the grid, written as a JSON list.
 
-    ``names``: dataset, method, seed, round (recorded as they are). The cells are
-    evaluated in one pass (condition ids stand in for MSPPP levels in ``evaluate``).
+    ``model_paths``: one model per seed of ``names["seeds"]`` (same order);
+    ``names``: dataset, method, seeds, round (recorded as they are). Each model's
+    cells are evaluated in one pass (condition ids stand in for MSPPP levels in
+    ``evaluate``); one record per seed.
     """
     import torch
 
@@ -200,45 +204,59 @@ def evaluate_grid(
     from spl_al.experiment.steps import _set_threads, model_for
     from spl_al.training import evaluate
 
-    started = time.perf_counter()
+    model_paths = [model_paths] if isinstance(model_paths, str | Path) else list(model_paths)
+    seeds = [int(s) for s in names["seeds"]]
+    if len(seeds) != len(model_paths):
+        raise ValueError(
+            f"evaluate_grid got {len(model_paths)} models for {len(seeds)} seeds {seeds}; "
+            "give one model per seed."
+        )
     _set_threads(threads)
     dataset = Dataset.load(observed_path, skip=SCENE_FIELDS)
     grid = load_grid(shard_paths)
-    model = model_for(dataset, model_cfg)
-    model.load_state_dict(torch.load(model_path, map_location="cpu", weights_only=True))
     c, n = grid["depth"].shape[:2]
     depth = grid["depth"].reshape(c * n, *grid["depth"].shape[2:])
     targets = np.tile(dataset.labels[grid["sample_idx"]], (c,) + (1,) * (dataset.labels.ndim - 1))
     cell = np.repeat(np.arange(c), n).astype(str)
-    metrics = evaluate(
-        model,
-        depth,
-        np.isfinite(depth),
-        targets,
-        levels=cell,
-        classes=dataset.classes,
-        device=device,
-        batch_size=batch_size,
-    )
     key = "accuracy" if dataset.task == "classification" else "miou"
-    per_cell = metrics["per_level"]
-    record = {
-        **{k: names[k] for k in ("dataset", "method", "seed", "round")},
-        "metric": key,
-        "source": grid["source"],
-        "n_test": int(n),
-        "cells": [
+    records = []
+    for seed, model_path in zip(seeds, model_paths, strict=True):
+        started = time.perf_counter()
+        model = model_for(dataset, model_cfg)
+        model.load_state_dict(torch.load(model_path, map_location="cpu", weights_only=True))
+        metrics = evaluate(
+            model,
+            depth,
+            np.isfinite(depth),
+            targets,
+            levels=cell,
+            classes=dataset.classes,
+            device=device,
+            batch_size=batch_size,
+        )
+        per_cell = metrics["per_level"]
+        records.append(
             {
-                "msppp": float(grid["msppp"][k]),
-                "sbr": float(grid["sbr"][k]),
-                "value": per_cell[str(k)][key],
+                "dataset": names["dataset"],
+                "method": names["method"],
+                "seed": seed,
+                "round": names["round"],
+                "metric": key,
+                "source": grid["source"],
+                "n_test": int(n),
+                "cells": [
+                    {
+                        "msppp": float(grid["msppp"][k]),
+                        "sbr": float(grid["sbr"][k]),
+                        "value": per_cell[str(k)][key],
+                    }
+                    for k in range(c)
+                ],
+                "seconds": round(time.perf_counter() - started, 3),
             }
-            for k in range(c)
-        ],
-        "seconds": round(time.perf_counter() - started, 3),
-    }
-    write_json(record, out_path)
-    return record
+        )
+    write_json(records, out_path)
+    return records
 
 
 def training_range(observed_path) -> dict:
@@ -257,8 +275,11 @@ def robustness_frame(eval_paths) -> pd.DataFrame:
     """One row per (method, seed, cell) of the evaluation records: dataset, metric,
     source, method, seed, round, msppp, sbr, value (in [0, 1])."""
     rows = []
+    records = []
     for path in eval_paths:
-        rec = read_json(path)
+        got = read_json(path)  # a list (evaluate_grid), or one record
+        records += got if isinstance(got, list) else [got]
+    for rec in records:
         for cell in rec["cells"]:
             rows.append(
                 {
