@@ -17,7 +17,11 @@ from pathlib import Path
 from spl_al.bench.timing import markdown_table
 
 _RULE_OF = (
+    # a simulated oracle's round 0 copies the shared fit (train_initial): no training
+    (re.compile(r"round0_train$"), "train, round 0"),
     (re.compile(r"round\d+_train$"), "train"),
+    (re.compile(r"initial_seed\d+_m\d+_train$"), "train_initial"),
+    (re.compile(r"robustness_grid_shard\d+$"), "robustness_grid"),
     (re.compile(r"round\d+_query$"), "query"),
     (re.compile(r"variants_shard\d+$"), "variants_shard"),
     (re.compile(r"table_\w+$"), "table"),
