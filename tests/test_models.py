@@ -73,6 +73,25 @@ def test_models_return_logits_and_features(task, arch, params, hw):
     assert torch.isfinite(logits).all() and torch.isfinite(feats).all()
 
 
+def test_absolute_unet_sees_where_a_return_is():
+    """The default U-Net's input is standardised per image, so a scene moved twice as
+    far gives the same logits; with ``absolute`` the range and the row position are
+    inputs too, so it does not (road and building differ in where they are)."""
+    from spl_al.models import model_input
+
+    depth = np.random.default_rng(0).uniform(5, 20, (2, 16, 24)).astype(np.float32)
+    depth[:, :3] = np.nan  # sky
+    logits = {}
+    for absolute in (False, True):
+        model = build_model("segmentation", 4, "unet", seed=0, width=4, depth=2, absolute=absolute)
+        with torch.no_grad():
+            out = [model.eval()(model_input(model, d))[0] for d in (depth, 2 * depth)]
+        assert out[0].shape == (2, 4, 16, 24)
+        logits[absolute] = out
+    torch.testing.assert_close(logits[False][0], logits[False][1])
+    assert not torch.allclose(logits[True][0], logits[True][1], atol=1e-4)
+
+
 def test_default_arch_per_task():
     assert build_model("classification", 3).arch == next(iter(ARCHS["classification"]))
     assert build_model("segmentation", 3, width=2, depth=1).arch == "unet"

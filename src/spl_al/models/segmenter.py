@@ -10,6 +10,8 @@ is deterministic (bilinear interpolation's is not).
 
 from __future__ import annotations
 
+import math
+
 import torch
 import torch.nn.functional as F
 from torch import nn
@@ -36,14 +38,33 @@ class UNet(nn.Module):
         width: channels at full resolution; level k has width * 2**k channels.
         depth: number of 2x downsamplings (the bottleneck is at H / 2**depth).
         in_channels: input channels (2: depth and validity).
+        absolute: take range in metres (``input_kind`` "range_m") and feed the network
+            the standardised depth, validity, log range and row position (4 channels,
+            ``_absolute_input``): a range image's classes differ in where they are
+            (road low and near, building far, sky void), which the per-image
+            standardisation alone removes. Off: the standardised input only.
     """
 
     task = "segmentation"
 
-    def __init__(self, n_classes: int, width: int = 16, depth: int = 3, in_channels: int = 2):
+    def __init__(
+        self,
+        n_classes: int,
+        width: int = 16,
+        depth: int = 3,
+        in_channels: int = 2,
+        absolute: bool = False,
+    ):
         super().__init__()
         if int(width) < 1 or int(depth) < 1:
             raise ValueError(f"width and depth must be >= 1, got {width}, {depth}.")
+        self.absolute = bool(absolute)
+        if self.absolute:
+            # takes (range, validity) and adds log range and the row's position to the
+            # standardised depth: where a return is, not only its shape, tells road
+            # from building in a range image
+            self.input_kind = "range_m"
+            in_channels = 4
         self.n_classes = int(n_classes)
         self.depth = int(depth)
         widths = [width * 2**k for k in range(depth + 1)]
@@ -65,6 +86,8 @@ class UNet(nn.Module):
     def forward(self, x: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
         """x (B, 2, H, W) -> logits (B, C, H, W), features (B, d, H, W)."""
         h, w = x.shape[-2:]
+        if self.absolute:
+            x = _absolute_input(x)
         step = 2**self.depth
         pad_h, pad_w = (-h) % step, (-w) % step
         if pad_h or pad_w:
@@ -78,3 +101,16 @@ class UNet(nn.Module):
             x = merge(torch.cat([skips.pop(), up(x)], dim=1))
         features = x[..., :h, :w]
         return self.head(features), features
+
+
+def _absolute_input(x: torch.Tensor) -> torch.Tensor:
+    """(B, 2, H, W) range in metres and validity -> (B, 4, H, W): standardised depth,
+    validity, log(1 + range) / log(1 + 100 m), and the row's position in [-1, 1]."""
+    from spl_al.models.normalise import to_input
+
+    range_m, valid = x[:, 0], x[:, 1] > 0
+    z = to_input(torch.where(valid, range_m, torch.nan), valid)
+    log_range = torch.where(valid, torch.log1p(range_m.clamp_min(0)) / math.log1p(100.0), 0.0)
+    b, _, h, w = x.shape
+    row = torch.linspace(-1.0, 1.0, h, device=x.device).view(1, 1, h, 1).expand(b, 1, h, w)
+    return torch.cat([z, log_range[:, None], row], dim=1)
