@@ -42,7 +42,8 @@ class UNet(nn.Module):
             the standardised depth, validity, log range and row position (4 channels,
             ``_absolute_input``): a range image's classes differ in where they are
             (road low and near, building far, sky void), which the per-image
-            standardisation alone removes. Off: the standardised input only.
+            standardisation alone removes (the default config turns it on). Off: the
+            standardised input only.
     """
 
     task = "segmentation"
