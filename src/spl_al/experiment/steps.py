@@ -384,9 +384,7 @@ def _score_variants(method: MethodSpec, needs, n_variants: int) -> int:
     group predictions (DUIS), else 0 (observed images only)."""
     from spl_al.strategies.inputs import GROUP_NEEDS
 
-    if not needs & GROUP_NEEDS:
-        return 0
-    return n_variants if method.n_variants is None else int(method.n_variants)
+    return _method_variants(method, n_variants) if needs & GROUP_NEEDS else 0
 
 
 def _metrics_record(
@@ -454,8 +452,11 @@ def _shared_round0(
 
 def _train_variants(method: MethodSpec, n_variants: int) -> int:
     """Variants per labeled group a method trains on (0: observed images only)."""
-    if not method.use_variants:
-        return 0
+    return _method_variants(method, n_variants) if method.use_variants else 0
+
+
+def _method_variants(method: MethodSpec, n_variants: int) -> int:
+    """A method's M: its own ``n_variants`` (the M sweep), else the dataset's."""
     return n_variants if method.n_variants is None else int(method.n_variants)
 
 
