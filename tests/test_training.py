@@ -6,6 +6,7 @@ import json
 import numpy as np
 import pytest
 import torch
+import torch.nn.functional as F
 from al_synthetic import shapes_groups, street_groups
 from torch import nn
 
@@ -22,6 +23,7 @@ from spl_al.training import (
     summarise,
     train,
 )
+from spl_al.training.fit import _soft_targets, random_affine, random_shift
 
 FAST = TrainConfig(epochs=4, batch_size=32, lr=0.05, log_every=0)
 
@@ -158,7 +160,17 @@ def test_train_config_from_dict_and_steps():
     paper = TrainConfig.paper()
     assert (paper.epochs, paper.batch_size, paper.lr, paper.momentum) == (200, 512, 0.1, 0.9)
     assert TrainConfig.from_dict(cfg.to_dict()) == cfg
-    for bad in ({"epoch": 3}, {"lr": -1}, {"batch_size": 0}, {"epochs": None}, {"cosine": "yes"}):
+    for bad in (
+        {"epoch": 3},
+        {"lr": -1},
+        {"batch_size": 0},
+        {"epochs": None},
+        {"cosine": "yes"},
+        {"rotate_deg": 200},
+        {"scale": 1.5},
+        {"mixup": -0.1},
+        {"label_smoothing": 1.0},
+    ):
         with pytest.raises(ValueError):
             TrainConfig.from_dict(bad)
 
@@ -181,3 +193,66 @@ def test_resolve_device():
     if not torch.cuda.is_available():
         with pytest.raises(ValueError, match="CUDA"):
             resolve_device("cuda")
+
+
+@pytest.mark.parametrize("augment", ["shift", "affine"])
+def test_geometric_augmentations_move_masks_with_their_pixels(augment):
+    """Every augmented pixel keeps the label of the depth it carries; what comes in from
+    outside the frame is void in the image and ignored in the mask."""
+    gen = torch.Generator().manual_seed(0)
+    y = torch.randint(0, 5, (8, 12, 20))
+    # Channel 0 carries each pixel's own label (+1, so 0 means void), channel 1 validity.
+    x = torch.stack([(y + 1).float(), torch.ones(y.shape)], dim=1)
+    if augment == "shift":
+        x2, y2 = random_shift(x, y, (3, 5), gen)
+    else:
+        x2, y2 = random_affine(x, y, rotate_deg=30, scale=0.3, gen=gen)
+    inside = y2 != IGNORE_INDEX
+    assert torch.equal(x2[:, 0][inside], (y2[inside] + 1).float())
+    assert torch.all(x2[:, 1][inside] == 1)
+    assert torch.all(x2.permute(1, 0, 2, 3)[:, ~inside] == 0)
+    assert 0 < (~inside).float().mean() < 0.5  # something moved out of the frame
+    assert not torch.equal(y2, y)
+
+
+def test_affine_augmentation_without_rotation_or_zoom_is_the_identity():
+    gen = torch.Generator().manual_seed(0)
+    x, y = torch.randn(4, 2, 16, 40), torch.randint(0, 3, (4, 16, 40))
+    x2, y2 = random_affine(x, y, 0.0, 0.0, gen)
+    assert torch.equal(x2, x) and torch.equal(y2, y)
+
+
+def test_soft_targets_mix_images_and_labels_alike():
+    cfg = TrainConfig(mixup=0.4, label_smoothing=0.1)
+    y = torch.tensor([0, 1, 2, 2])
+    x = F.one_hot(y, 3).float()[:, :, None, None].expand(4, 3, 2, 2)  # image = its label
+    mixed, q = _soft_targets(x, y, 3, cfg, np.random.default_rng(0))
+    assert torch.allclose(q.sum(1), torch.ones(4))
+    # Each mixed image is the same convex combination of the two labels as its target.
+    assert torch.allclose((q - 0.1 / 3) / 0.9, mixed[:, :, 0, 0], atol=1e-6)
+    _, plain = _soft_targets(x, y, 3, TrainConfig(label_smoothing=0.1), None)
+    assert torch.allclose(plain, 0.9 * F.one_hot(y, 3) + 0.1 / 3)
+
+
+def test_training_with_every_augmentation_is_deterministic_and_learns():
+    depth, valid, y = shapes_groups(200, n_groups=1, seed=1)
+    d, v = depth[:140, 0], valid[:140, 0]
+    cfg = TrainConfig(
+        epochs=12,
+        batch_size=32,
+        lr=0.05,
+        log_every=0,
+        shift=0.1,
+        rotate_deg=15,
+        scale=0.1,
+        mixup=0.4,
+        label_smoothing=0.05,
+    )
+    runs = [
+        train(
+            build_model("classification", 3, width=8), d, v, y[:140], cfg, 0, "cpu", io.StringIO()
+        )
+        for _ in range(2)
+    ]
+    assert _same_weights(*runs)
+    assert evaluate(runs[0], depth[140:, 0], valid[140:, 0], y[140:])["accuracy"] > 0.8

@@ -32,6 +32,16 @@ class TrainConfig:
             width (each image its own integer shift; pixels shifted in are voids,
             masks shift alike); 0 disables. The cheapest strong prior for few labels:
             a class does not change when the object moves in the frame.
+        rotate_deg: random rotations of each image by up to this many degrees (nearest
+            sampling: depths are moved, never blended; what rotates in is void,
+            masks rotate alike); 0 disables.
+        scale: random zoom of each image by a factor in [1 - scale, 1 + scale]
+            (nearest sampling, like ``rotate_deg``); 0 disables.
+        mixup: classification only: train on convex mixtures of two images of a batch
+            and of their one-hot labels, the weight drawn per image from
+            Beta(mixup, mixup) (Zhang et al. 2018); 0 disables.
+        label_smoothing: classification only: the target puts this mass uniformly
+            over the classes; 0 disables.
         from_scratch: re-initialise the weights from the seed before training.
         channels_last: NHWC memory layout (about 2x faster convolutions on CPU).
         log_every: write a progress line every this many epochs (0: none).
@@ -51,6 +61,10 @@ class TrainConfig:
     cosine: bool = True
     hflip: bool = True
     shift: float = 0.0
+    rotate_deg: float = 0.0
+    scale: float = 0.0
+    mixup: float = 0.0
+    label_smoothing: float = 0.0
     from_scratch: bool = True
     channels_last: bool = True
     log_every: int = 1
@@ -79,7 +93,14 @@ class TrainConfig:
             raise ValueError(f"TrainConfig.shift must be a number in [0, 0.5), got {self.shift!r}.")
         if not 0 <= self.shift < 0.5:
             raise ValueError(f"TrainConfig.shift must be a number in [0, 0.5), got {self.shift!r}.")
-        for name in ("lr", "momentum", "weight_decay"):
+        bounds = {"rotate_deg": (0, 180), "scale": (0, 1), "label_smoothing": (0, 1)}
+        for name, (low, high) in bounds.items():
+            value = getattr(self, name)
+            if isinstance(value, bool) or not isinstance(value, int | float):
+                raise ValueError(f"TrainConfig.{name} must be a number, got {value!r}.")
+            if not low <= value < high:
+                raise ValueError(f"TrainConfig.{name} must lie in [{low}, {high}), got {value!r}.")
+        for name in ("lr", "momentum", "weight_decay", "mixup"):
             value = getattr(self, name)
             if isinstance(value, bool) or not isinstance(value, int | float) or not value >= 0:
                 raise ValueError(f"TrainConfig.{name} must be a number >= 0, got {value!r}.")

@@ -111,6 +111,55 @@ def random_shift(
     return x, y
 
 
+def random_affine(
+    x: torch.Tensor,
+    y: torch.Tensor | None,
+    rotate_deg: float,
+    scale: float,
+    gen: torch.Generator,
+) -> tuple[torch.Tensor, torch.Tensor | None]:
+    """Rotate and zoom each image of a batch about its centre by its own random amount.
+
+    Output pixel p takes the input pixel at ``centre + R(-a) (p - centre) / z`` (nearest
+    sampling, so a depth is moved, never averaged with a neighbour), with the angle
+    a ~ U(-rotate_deg, rotate_deg) and the zoom z ~ U(1 - scale, 1 + scale); angles
+    are in pixel space, so a non-square image is rotated without shearing.
+
+    Args:
+        x: (B, C, H, W) network input; what comes in from outside the frame is zeros
+            (voids).
+        y: (B, H, W) masks (transformed alike, IGNORE_INDEX outside) or None.
+        gen: CPU generator of the angles and zooms.
+    """
+    b, _, h, w = x.shape
+    angle = torch.deg2rad((2 * torch.rand(b, generator=gen) - 1) * rotate_deg)
+    zoom = 1 + (2 * torch.rand(b, generator=gen) - 1) * scale
+    cos, sin = torch.cos(angle) / zoom, torch.sin(angle) / zoom
+    # Pixel-space matrix in affine_grid's normalised coordinates: D A D^-1, D = diag(2/W, 2/H).
+    theta = torch.zeros(b, 2, 3)
+    theta[:, 0, 0], theta[:, 0, 1] = cos, -sin * h / w
+    theta[:, 1, 0], theta[:, 1, 1] = sin * w / h, cos
+    grid = F.affine_grid(theta.to(x.device, x.dtype), list(x.shape), align_corners=False)
+    x = F.grid_sample(x, grid, mode="nearest", padding_mode="zeros", align_corners=False)
+    if y is not None:
+        # Shift labels by one so that zero padding marks the outside, then map it to ignore.
+        moved = (
+            F.grid_sample((y.to(x.dtype) + 1)[:, None], grid, mode="nearest", align_corners=False)[
+                :, 0
+            ]
+            .round()
+            .long()
+            - 1
+        )
+        y = torch.where(moved < 0, IGNORE_INDEX, moved)
+    return x, y
+
+
+def soft_cross_entropy(logits: torch.Tensor, target: torch.Tensor) -> torch.Tensor:
+    """Mean over the batch of -sum_c q(c) log softmax(logits)(c), q: (B, C) target rows."""
+    return -(target * F.log_softmax(logits.float(), dim=1)).sum(dim=1).mean()
+
+
 class ProgressLog:
     """Writes progress lines to stderr (None), an open text stream, or a file path (appended)."""
 
@@ -131,6 +180,21 @@ class ProgressLog:
     def close(self) -> None:
         if self._own:
             self.stream.close()
+
+
+def _soft_targets(
+    x: torch.Tensor, y: torch.Tensor, n_classes: int, cfg: TrainConfig, rng: np.random.Generator
+) -> tuple[torch.Tensor, torch.Tensor]:
+    """Mixup and label smoothing of a classification batch: images (B, C, H, W) and
+    target rows q (B, n_classes), q = (1 - eps) [lam e_y + (1 - lam) e_y'] + eps / n_classes."""
+    q = F.one_hot(y, n_classes).to(x.dtype)
+    if cfg.mixup > 0:
+        lam = torch.from_numpy(rng.beta(cfg.mixup, cfg.mixup, size=len(y))).to(x.device, x.dtype)
+        partner = torch.from_numpy(rng.permutation(len(y))).to(x.device)
+        x = lam.view(-1, 1, 1, 1) * x + (1 - lam.view(-1, 1, 1, 1)) * x[partner]
+        q = lam[:, None] * q + (1 - lam[:, None]) * q[partner]
+    eps = cfg.label_smoothing
+    return x, (1 - eps) * q + eps / n_classes
 
 
 def train(
@@ -193,6 +257,7 @@ def train(
     if cfg.channels_last:
         model.to(memory_format=torch.channels_last)
     gen = torch.Generator().manual_seed(int(seed))
+    mix_rng = np.random.default_rng([int(seed), 3])
     opt = torch.optim.SGD(
         model.parameters(),
         lr=cfg.lr,
@@ -247,16 +312,23 @@ def train(
                         xb = torch.where(flip.view(-1, 1, 1, 1), xb.flip(-1), xb)
                         if task == "segmentation":
                             yb = torch.where(flip.view(-1, 1, 1), yb.flip(-1), yb)
+                    masks = yb if task == "segmentation" else None
                     if max(shift_px) > 0:
-                        xb, yb_shifted = random_shift(
-                            xb, yb if task == "segmentation" else None, shift_px, gen
-                        )
-                        if task == "segmentation":
-                            yb = yb_shifted
+                        xb, masks = random_shift(xb, masks, shift_px, gen)
+                    if cfg.rotate_deg > 0 or cfg.scale > 0:
+                        xb, masks = random_affine(xb, masks, cfg.rotate_deg, cfg.scale, gen)
+                    if task == "segmentation":
+                        yb = masks
+                    soft = None
+                    if task == "classification" and (cfg.mixup > 0 or cfg.label_smoothing > 0):
+                        xb, soft = _soft_targets(xb, yb, model.n_classes, cfg, mix_rng)
                     if cfg.channels_last:
                         xb = xb.contiguous(memory_format=torch.channels_last)
                     logits, _ = model(xb)
-                    loss = masked_cross_entropy(logits, yb)
+                    if soft is None:
+                        loss = masked_cross_entropy(logits, yb)
+                    else:
+                        loss = soft_cross_entropy(logits, soft)
                     opt.zero_grad(set_to_none=True)
                     loss.backward()
                     opt.step()
