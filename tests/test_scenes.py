@@ -112,6 +112,24 @@ def test_distance_follows_target_size():
     assert dist["apple"] < 1.0 < dist["human"] < 20.0 < dist["building"] < 140.0
 
 
+@pytest.mark.parametrize("category", ["building", "apple", "ship"])
+def test_object_size_m_scales_scene_and_distance_together(category):
+    """A scaled object stands where it fills the same part of the frame: the image is
+    the same with every range multiplied by the scale, whatever the category's own size."""
+    kw = {"image_shape": (24, 24), "fov_deg": 10, "fill": (0.8, 0.8), "p_wall": 1.0}
+    a, b = (
+        render_object(category, np.random.default_rng(5), object_size_m=(s, s), **kw)
+        for s in (3.0, 6.0)
+    )
+    assert a.object_mask.sum() > 20 and np.array_equal(a.valid, b.valid)
+    np.testing.assert_allclose(b.depth_m[b.valid], 2 * a.depth_m[a.valid], rtol=1e-5)
+    assert b.distance_m == pytest.approx(2 * a.distance_m)
+    # A 3 m diagonal seen at 10 degrees stands within a few tens of metres, any category.
+    assert 5 < a.distance_m < 40
+    with pytest.raises(ValueError, match="object_size_m"):
+        render_object(category, np.random.default_rng(5), object_size_m=(6, 3), **kw)
+
+
 def test_street_scene_labels_align_with_returns():
     counts = np.zeros(256, int)
     for k in range(4):

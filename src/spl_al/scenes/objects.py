@@ -10,7 +10,11 @@ sailing boat), pose and viewpoint, scale and material albedo.
 Distance follows the target's size as in the paper's captures: the object fills a
 random fraction (``fill``) of the frame, so a 20 m building stands ~100 m away and
 an apple ~0.3 m. Apparent size is thus random within every class, and distance
-only separates coarse size groups; the class is in the shape.
+only separates coarse size groups; the class is in the shape. With
+``object_size_m`` every object is scaled to a physical size drawn independently of
+its class (scale models, as a lab capture might use), so range says nothing about the
+class at all: scaling a scene and its viewing distance together leaves the image
+unchanged except for the sensor's fixed timing resolution.
 
 Scene around the object, drawn identically for every class: a ground plane
 (probability ``p_ground``) and a wall behind it (``p_wall``) at a distance relative
@@ -727,6 +731,7 @@ def render_object(
     min_return: float = 0.05,
     instance_rng: np.random.Generator | None = None,
     azimuth_deg: float | None = None,
+    object_size_m=None,
 ) -> ObjectImage:
     """Render one scene of ``category`` seen by a scanning SPL.
 
@@ -747,10 +752,24 @@ def render_object(
         azimuth_deg: with ``instance_rng``, the view azimuth varies by +-azimuth_deg
             around the instance's resting orientation (None: any azimuth, or +-60
             degrees of broadside for bikes, ships and roadblocks).
+        object_size_m: (low, high): scale the object (about its ground contact) so its
+            bounding-box diagonal is drawn uniformly from this range, per instance
+            (from ``instance_rng`` when given), whatever its category; None: the
+            category's own size.
     """
     if category not in BUILDERS:
         raise ValueError(f"category must be one of {CATEGORIES}, got {category!r}.")
-    obj = BUILDERS[category](rng if instance_rng is None else instance_rng)
+    if object_size_m is not None and not (
+        len(object_size_m) == 2 and 0 < object_size_m[0] <= object_size_m[1]
+    ):
+        raise ValueError(
+            f"object_size_m must be (low, high) with 0 < low <= high, got {object_size_m!r}."
+        )
+    shape_rng = rng if instance_rng is None else instance_rng
+    obj = BUILDERS[category](shape_rng)
+    if object_size_m is not None:
+        lo, hi = obj.bounds()
+        obj = obj.scaled(_u(shape_rng, *object_size_m) / float(np.linalg.norm(hi - lo)))
     obj.label = np.full(len(obj.faces), OBJECT_LABEL, dtype=np.int64)
     grid = ScanGrid.square_pixels(image_shape, fov_deg)
     lo, hi = obj.bounds()
