@@ -225,6 +225,23 @@ def _default_datasets(config_path: Path, names: list[str] | None, cache: Path):
         yield name, Dataset.load(path), entry["train"]["model"], entry["train"]["fit"]
 
 
+def recipe_overrides(items: list[str]) -> dict:
+    """``["fit.mixup=0.4", "model.width=32"]`` -> {"model": {"width": 32}, "fit": {...}};
+    values are read as YAML (numbers, true/false, lists)."""
+    import yaml
+
+    out: dict = {"model": {}, "fit": {}}
+    for item in items:
+        key, sep, value = item.partition("=")
+        section, _, name = key.partition(".")
+        if not sep or section not in out or not name:
+            raise ValueError(
+                f"--set takes model.KEY=VALUE or fit.KEY=VALUE (e.g. fit.mixup=0.4), got {item!r}."
+            )
+        out[section][name] = yaml.safe_load(value)
+    return out
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(prog="python -m spl_al.bench learnability")
     parser.add_argument("datasets", nargs="*", type=Path, help="dataset .npz files (with variants)")
@@ -234,7 +251,15 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--fractions", type=float, nargs="*", default=list(FRACTIONS))
     parser.add_argument("--cache", type=Path, default=None, help="folder for synthesised data")
     parser.add_argument("--no-digits", action="store_true", help="skip the SPL digits folder")
+    parser.add_argument(
+        "--set",
+        nargs="*",
+        default=[],
+        metavar="KEY=VALUE",
+        help="override the recipe of every dataset, e.g. fit.mixup=0.4 model.width=32",
+    )
     args = parser.parse_args(argv)
+    overrides = recipe_overrides(args.set)
 
     import yaml
 
@@ -268,6 +293,8 @@ def main(argv: list[str] | None = None) -> int:
 
     lines = []
     for name, data, model_cfg, fit_cfg in entries:
+        model_cfg = {**model_cfg, **overrides["model"]}
+        fit_cfg = {**fit_cfg, **overrides["fit"]}
         print(f"{name}: {len(data.train_idx)} training groups, M = {data.n_variants}", flush=True)
         rows = learning_curves(data, model_cfg, fit_cfg, args.fractions, args.seeds)
         lines += table_rows(name, rows)
