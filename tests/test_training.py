@@ -166,6 +166,7 @@ def test_train_config_from_dict_and_steps():
         {"batch_size": 0},
         {"epochs": None},
         {"cosine": "yes"},
+        {"shift": 0.5},
         {"rotate_deg": 200},
         {"scale": 1.5},
         {"mixup": -0.1},

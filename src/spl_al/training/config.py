@@ -89,11 +89,12 @@ class TrainConfig:
         positive_int("log_every", self.log_every, minimum=0)
         positive_int("num_threads", self.num_threads, allow_none=True)
         positive_int("eval_batch_size", self.eval_batch_size)
-        if isinstance(self.shift, bool) or not isinstance(self.shift, int | float):
-            raise ValueError(f"TrainConfig.shift must be a number in [0, 0.5), got {self.shift!r}.")
-        if not 0 <= self.shift < 0.5:
-            raise ValueError(f"TrainConfig.shift must be a number in [0, 0.5), got {self.shift!r}.")
-        bounds = {"rotate_deg": (0, 180), "scale": (0, 1), "label_smoothing": (0, 1)}
+        bounds = {
+            "shift": (0, 0.5),
+            "rotate_deg": (0, 180),
+            "scale": (0, 1),
+            "label_smoothing": (0, 1),
+        }
         for name, (low, high) in bounds.items():
             value = getattr(self, name)
             if isinstance(value, bool) or not isinstance(value, int | float):
