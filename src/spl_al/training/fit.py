@@ -183,10 +183,15 @@ class ProgressLog:
 
 
 def _soft_targets(
-    x: torch.Tensor, y: torch.Tensor, n_classes: int, cfg: TrainConfig, rng: np.random.Generator
+    x: torch.Tensor,
+    y: torch.Tensor,
+    n_classes: int,
+    cfg: TrainConfig,
+    rng: np.random.Generator | None,
 ) -> tuple[torch.Tensor, torch.Tensor]:
     """Mixup and label smoothing of a classification batch: images (B, C, H, W) and
-    target rows q (B, n_classes), q = (1 - eps) [lam e_y + (1 - lam) e_y'] + eps / n_classes."""
+    target rows q (B, n_classes), q = (1 - eps) [lam e_y + (1 - lam) e_y'] + eps / n_classes.
+    ``rng`` draws lam and the partners y' (unused, may be None, without mixup)."""
     q = F.one_hot(y, n_classes).to(x.dtype)
     if cfg.mixup > 0:
         lam = torch.from_numpy(rng.beta(cfg.mixup, cfg.mixup, size=len(y))).to(x.device, x.dtype)
