@@ -257,3 +257,49 @@ def test_training_with_every_augmentation_is_deterministic_and_learns():
     ]
     assert _same_weights(*runs)
     assert evaluate(runs[0], depth[140:, 0], valid[140:, 0], y[140:])["accuracy"] > 0.8
+
+
+@pytest.mark.parametrize(
+    ("momentum", "nesterov", "weight_decay"),
+    [(0.9, False, 5e-4), (0.9, True, 1e-3), (0.0, False, 0.0)],
+)
+def test_sgd_makes_torch_optim_sgd_update_bit_for_bit(momentum, nesterov, weight_decay):
+    from spl_al.training.sgd import SGD
+
+    def run(make_opt):
+        torch.manual_seed(0)
+        model = nn.Sequential(nn.Linear(6, 5), nn.ReLU(), nn.Linear(5, 3), nn.Linear(4, 4))
+        opt = make_opt(model.parameters())
+        x = torch.randn(40, 6, generator=torch.Generator().manual_seed(1))
+        for step in range(7):
+            opt.param_groups[0]["lr"] = 0.1 / (step + 1)
+            loss = model[:3](x[step * 5 : step * 5 + 5]).square().mean()
+            if step >= 3:  # a parameter that gets a gradient only from step 3 on
+                loss = loss + model[3].weight.square().sum()
+            opt.zero_grad(set_to_none=True)
+            loss.backward()
+            opt.step()
+        return model
+
+    kw = dict(lr=0.1, momentum=momentum, nesterov=nesterov, weight_decay=weight_decay)
+    assert _same_weights(run(lambda p: SGD(p, **kw)), run(lambda p: torch.optim.SGD(p, **kw)))
+
+
+def test_training_does_not_load_the_torch_compiler(tmp_path):
+    # torch.optim and torch.use_deterministic_algorithms import torch._dynamo (~1 s of
+    # every training job's start-up); train must reach neither.
+    import subprocess
+    import sys
+
+    code = (
+        "import sys, numpy as np\n"
+        "from spl_al.models import build_model\n"
+        "from spl_al.training import TrainConfig, train\n"
+        "m = build_model('classification', 2, seed=0, width=4, stages=2)\n"
+        "d = np.random.default_rng(0).uniform(1, 5, (8, 16, 16)).astype(np.float32)\n"
+        "train(m, d, np.ones(d.shape, bool), np.arange(8) % 2,\n"
+        "      TrainConfig(steps=2, batch_size=4, log_every=0), seed=0)\n"
+        "print(sorted(m for m in ('torch._dynamo', 'torch._inductor') if m in sys.modules))\n"
+    )
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    assert out.stdout.strip() == "[]"

@@ -154,6 +154,17 @@ def resolve_device(name: str | torch.device | None = None) -> torch.device:
     return torch.device(name)
 
 
+def _set_deterministic(mode: bool, warn_only: bool) -> None:
+    # torch.use_deterministic_algorithms also sets inductor's flag, importing
+    # torch._inductor and torch._dynamo: ~1 s of every job's start-up for a compiler
+    # never used here. The flag eager kernels read is this one.
+    setter = getattr(torch._C, "_set_deterministic_algorithms", None)
+    if setter is None:  # a torch without the private setter: the public call
+        torch.use_deterministic_algorithms(mode, warn_only=warn_only)
+    else:
+        setter(mode, warn_only=warn_only)
+
+
 @contextmanager
 def deterministic_algorithms() -> Iterator[None]:
     """Run the block with torch's deterministic kernels (cuDNN too), then restore.
@@ -166,12 +177,12 @@ def deterministic_algorithms() -> Iterator[None]:
         torch.backends.cudnn.deterministic,
         torch.backends.cudnn.benchmark,
     )
-    torch.use_deterministic_algorithms(True, warn_only=True)
+    _set_deterministic(True, warn_only=True)
     torch.backends.cudnn.deterministic = True
     torch.backends.cudnn.benchmark = False
     try:
         yield
     finally:
-        torch.use_deterministic_algorithms(previous[0], warn_only=previous[1])
+        _set_deterministic(previous[0], warn_only=previous[1])
         torch.backends.cudnn.deterministic = previous[2]
         torch.backends.cudnn.benchmark = previous[3]

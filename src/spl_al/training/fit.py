@@ -16,6 +16,7 @@ from torch import nn
 from spl_al.labels import IGNORE_INDEX
 from spl_al.models import model_input, reset_parameters
 from spl_al.training.config import TrainConfig, deterministic_algorithms, resolve_device
+from spl_al.training.sgd import SGD
 
 
 def masked_cross_entropy(logits: torch.Tensor, target: torch.Tensor) -> torch.Tensor:
@@ -263,7 +264,7 @@ def train(
         model.to(memory_format=torch.channels_last)
     gen = torch.Generator().manual_seed(int(seed))
     mix_rng = np.random.default_rng([int(seed), 3])
-    opt = torch.optim.SGD(
+    opt = SGD(
         model.parameters(),
         lr=cfg.lr,
         momentum=cfg.momentum,
