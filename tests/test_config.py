@@ -33,3 +33,26 @@ def test_real_captures_config_wins_over_the_environment(tmp_path):
         ValueError, match=r"config key 'photon.real_captures' names .* not a folder"
     ):
         real_captures_dir({"photon": {"real_captures": str(tmp_path / "no")}}, env)
+
+
+def test_paper_config_trains_with_the_papers_recipe_whatever_the_defaults():
+    """config/paper.yaml is merged over config/config.yaml (nulls then removed, as the
+    Snakefile does): the default CPU classifier's layers and augmentation must not
+    leak into the paper's ResNet-18 training."""
+    from pathlib import Path
+
+    import yaml
+    from snakemake.utils import update_config
+
+    from spl_al.models import build_model
+    from spl_al.training import TrainConfig
+
+    root = Path(__file__).resolve().parents[1]
+    config = yaml.safe_load((root / "config" / "config.yaml").read_text())
+    update_config(config, yaml.safe_load((root / "config" / "paper.yaml").read_text()))
+    drop_removed(config)
+    for name in ("real_cls", "synth_cls"):
+        train = config["datasets"][name]["train"]
+        assert train["model"] == {"arch": "resnet18"}
+        build_model("classification", 11, **train["model"])
+        assert TrainConfig.from_dict(train["fit"]) == TrainConfig.paper()
