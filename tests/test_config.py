@@ -2,9 +2,15 @@
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import pytest
+import yaml
+from snakemake.utils import update_config
 
 from spl_al.config import check_config, drop_removed, real_captures_dir
+from spl_al.models import build_model
+from spl_al.training import TrainConfig
 
 
 def test_null_removes_a_key_at_any_depth():
@@ -39,14 +45,6 @@ def test_paper_config_trains_with_the_papers_recipe_whatever_the_defaults():
     """config/paper.yaml is merged over config/config.yaml (nulls then removed, as the
     Snakefile does): the default CPU classifier's layers and augmentation must not
     leak into the paper's ResNet-18 training."""
-    from pathlib import Path
-
-    import yaml
-    from snakemake.utils import update_config
-
-    from spl_al.models import build_model
-    from spl_al.training import TrainConfig
-
     root = Path(__file__).resolve().parents[1]
     config = yaml.safe_load((root / "config" / "config.yaml").read_text())
     update_config(config, yaml.safe_load((root / "config" / "paper.yaml").read_text()))
