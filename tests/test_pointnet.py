@@ -7,7 +7,7 @@ import torch
 
 from spl_al.data.synthetic import make_segmentation_dataset
 from spl_al.experiment.steps import model_for
-from spl_al.models import build_model, model_input, to_range_input
+from spl_al.models import build_model, model_input, to_range_input, training_outputs
 from spl_al.models.pointnet import (
     ball_query,
     farthest_point_sample,
@@ -37,13 +37,18 @@ def _fps_reference(x: np.ndarray, s: int) -> list[int]:
     return chosen
 
 
-def test_farthest_point_sampling_matches_brute_force():
+@pytest.mark.parametrize("backend", ["numpy", "torch"])
+def test_farthest_point_sampling_matches_brute_force(backend):
     x = _cloud()
-    got = farthest_point_sample(x, 12)
+    got = farthest_point_sample(x, 12, backend)
     for b in range(len(x)):
         assert got[b].tolist() == _fps_reference(x[b].numpy(), 12)
+    cloud32 = _cloud(b=4, n=500, seed=4).float()
+    assert torch.equal(
+        farthest_point_sample(cloud32, 64, "numpy"), farthest_point_sample(cloud32, 64, "torch")
+    )
     with pytest.raises(ValueError, match="n_centres"):
-        farthest_point_sample(x, 61)
+        farthest_point_sample(x, 61, backend)
 
 
 @pytest.mark.parametrize("backend", BACKENDS)
@@ -61,6 +66,11 @@ def test_ball_query_matches_brute_force(backend):
             assert got[b, s].tolist() == expected
     # more slots than points: padded with the nearest
     assert ball_query(x[:, :3], centres, 100.0, 5, backend).shape == (2, 7, 5)
+    # an empty ball: every slot is the nearest point, however far
+    far = x[:, :1] + 50.0
+    nearest = ((x - far) ** 2).sum(-1).argmin(-1)
+    got = ball_query(x, far, 1.0, 4, backend)
+    assert torch.equal(got, nearest[:, None, None].expand(-1, 1, 4))
 
 
 @pytest.mark.parametrize("backend", BACKENDS)
@@ -131,14 +141,39 @@ def _toy_scenes(n: int, grid: ScanGrid, seed: int):
 FIT = {"epochs": 15, "min_steps": 0, "batch_size": 8, "lr": 0.05, "channels_last": False}
 
 
-def test_learns_a_toy_two_class_cloud():
+@pytest.mark.parametrize("loss_at", ["points", "pixels"])
+def test_learns_a_toy_two_class_cloud(loss_at):
     grid = _grid()
     depth, valid, labels = _toy_scenes(48, grid, seed=0)
     test_d, test_v, test_y = _toy_scenes(16, grid, seed=1)
-    model = build_model("segmentation", 2, "pointnet2", grid=grid, **SMALL)
+    model = build_model("segmentation", 2, "pointnet2", grid=grid, loss_at=loss_at, **SMALL)
     train(model, depth, valid, labels, {**FIT, "log_every": 0}, seed=1, device="cpu")
     metrics = evaluate(model, test_d, test_v, test_y, device="cpu")
     assert metrics["pixel_accuracy"] >= 0.95, metrics
+
+
+def test_training_scores_the_sampled_points_unless_told_pixels():
+    grid = _grid()
+    depth, valid, labels = _toy_scenes(3, grid, seed=3)
+    model = build_model("segmentation", 2, "pointnet2", seed=0, grid=grid, **SMALL).eval()
+    x, y = model_input(model, depth, valid), torch.from_numpy(labels.astype(np.int64))
+    with torch.no_grad():
+        logits, target = training_outputs(model, x, y)
+        pixel_logits = model(x)[0].reshape(3, 2, -1)
+    # evaluation mode samples deterministically, so the sampled pixels are known
+    idx = sample_pixels(torch.from_numpy(valid).reshape(3, -1), SMALL["n_points"], None)
+    assert logits.shape == (3, 2, SMALL["n_points"])
+    assert torch.equal(target, torch.gather(y.reshape(3, -1), 1, idx))
+    assert int(target.max()) < 2  # sampled pixels are valid, none carries the ignore label
+    # a sampled pixel's interpolated prediction is its own point's
+    at_points = torch.gather(pixel_logits, 2, idx[:, None].expand(-1, 2, -1))
+    torch.testing.assert_close(logits, at_points, atol=1e-4, rtol=1e-3)
+
+    per_pixel = build_model("segmentation", 2, "pointnet2", grid=grid, loss_at="pixels", **SMALL)
+    logits, target = training_outputs(per_pixel.eval(), x, y)
+    assert logits.shape == (3, 2, *grid.shape) and target is y
+    with pytest.raises(ValueError, match="loss_at must be"):
+        build_model("segmentation", 2, "pointnet2", grid=grid, loss_at="rays", **SMALL)
 
 
 def test_training_is_deterministic_for_a_seed():

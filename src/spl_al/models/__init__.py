@@ -13,6 +13,8 @@ Public API:
   prediction and scoring all build their input with it.
 - ``needs_grid(task, arch)``: whether the architecture is built with the scan grid
   of the images (``grid=dataset.grid()``; PointNet++ turns pixels into points with it).
+- ``training_outputs(model, x, target)``: the logits and targets a training step
+  scores (every unit, or the model's own choice: PointNet++ its sampled points).
 - ``reset_parameters(model, seed)``: deterministic re-initialisation.
 - ``ARCHS``: the architectures per task (the first one is the task's default).
 """
@@ -46,6 +48,21 @@ def model_input(model: nn.Module, depth_m, valid=None) -> torch.Tensor:
     if kind not in INPUT_KINDS:
         raise ValueError(f"model input_kind must be one of {sorted(INPUT_KINDS)}, got {kind!r}.")
     return INPUT_KINDS[kind](depth_m, valid)
+
+
+def training_outputs(
+    model: nn.Module, x: torch.Tensor, target: torch.Tensor
+) -> tuple[torch.Tensor, torch.Tensor]:
+    """The (logits, target) pair a training step scores for input ``x`` and ``target``.
+
+    By default every unit: ``model(x)[0]`` with ``target`` unchanged ((B, C) / (B,) or
+    (B, C, H, W) / (B, H, W)). A model with a ``training_outputs(x, target)`` method
+    decides itself (PointNet++ scores its sampled points: (B, C, N) / (B, N)).
+    """
+    own = getattr(model, "training_outputs", None)
+    if own is not None:
+        return own(x, target)
+    return model(x)[0], target
 
 
 def needs_grid(task: str, arch: str | None) -> bool:
@@ -126,4 +143,5 @@ __all__ = [
     "reset_parameters",
     "to_input",
     "to_range_input",
+    "training_outputs",
 ]

@@ -29,7 +29,7 @@ Inside, per image (the pixel index of every point is kept by construction):
        groups   = for each centre its K nearest points within radius R_k
                   (``ball_query``; slots beyond the ball repeat the nearest point),
        feature  = max over the group of a shared MLP of
-                  ((xyz_j - xyz_centre) / R_k, f_j)  (1x1 conv, batch norm, ReLU);
+                  ((xyz_j - xyz_centre) / R_k, f_j)  (per point: linear, batch norm, ReLU);
    then feature propagation from the coarsest level back to the N points, each
        f_fine = MLP( concat( sum_{i in 3-NN} w_i f_coarse,i , f_fine_skip ) ),
        w_i = (1 / (d_i + eps)) / sum_{i'} (1 / (d_i' + eps))  (``three_nn_interpolate``).
@@ -37,10 +37,14 @@ Inside, per image (the pixel index of every point is kept by construction):
    interpolation of the N points' final features (a sampled pixel's nearest point is
    itself, weight ~1); a 1x1 linear head turns features into logits (linear, so it
    commutes with the interpolation). The features are what Coreset, BADGE and DUIS use.
+5. Training (``training_outputs``) scores the N sampled points themselves by default
+   (``loss_at="points"``, PointNet++'s own recipe): each step sees a fresh random
+   sample of every cloud and skips step 4, which costs about a third of a CPU step.
 
-No compiled extension: farthest point sampling is torch; neighbour searches (``knn``)
-use scipy's cKDTree on the CPU and chunked torch brute force on other devices (at most
-``_CHUNK_ELEMENTS`` distances at once), which agree up to ties in distance.
+No compiled extension: farthest point sampling is a numpy loop on the CPU and a torch
+loop elsewhere (the same centres); neighbour searches (``knn``) use scipy's cKDTree on
+the CPU and chunked torch brute force on other devices (at most ``_CHUNK_ELEMENTS``
+distances at once), which agree up to ties in distance.
 """
 
 from __future__ import annotations
@@ -67,19 +71,26 @@ def square_distances(a: torch.Tensor, b: torch.Tensor) -> torch.Tensor:
 
 
 def knn(
-    query: torch.Tensor, ref: torch.Tensor, k: int, backend: str | None = None
+    query: torch.Tensor,
+    ref: torch.Tensor,
+    k: int,
+    backend: str | None = None,
+    within_m: float | None = None,
 ) -> tuple[torch.Tensor, torch.Tensor]:
     """The k nearest ``ref`` points of every ``query`` point, nearest first, no gradient.
 
     Args:
         query: (B, P, 3); ref: (B, N, 3) with N >= k.
         backend: "kdtree", "torch", or None (kdtree on the CPU, torch elsewhere).
+        within_m: if given, only neighbours at most this far are wanted: beyond the
+            nearest one (always returned) the others may come back as distance inf
+            and index N (the k-d tree then prunes its search, faster for small balls).
 
     Returns:
         squared distances (B, P, k) and indices (B, P, k) into ``ref``. On the CPU a
         scipy cKDTree per cloud (O(P log N)); elsewhere chunked brute force with
         ``torch.topk`` (at most ``_CHUNK_ELEMENTS`` distances at once). Both give the
-        same neighbours up to ties in distance.
+        same neighbours (within ``within_m``) up to ties in distance.
     """
     b, p, _ = query.shape
     n = ref.shape[1]
@@ -97,9 +108,17 @@ def knn(
             r = ref.detach().double().numpy()
             dist = np.empty((b, p, k))
             idx = np.empty((b, p, k), dtype=np.int64)
+            # a hair past the radius, so that points exactly on it are kept as in torch
+            bound = np.inf if within_m is None else float(within_m) * (1 + 1e-6) + 1e-9
             for i in range(b):
-                d_i, j_i = cKDTree(r[i]).query(q[i], k)
-                dist[i], idx[i] = d_i.reshape(p, k), j_i.reshape(p, k)
+                tree = cKDTree(r[i])
+                d_i, j_i = tree.query(q[i], k, distance_upper_bound=bound)
+                d_i, j_i = d_i.reshape(p, k), j_i.reshape(p, k)
+                lonely = j_i[:, 0] == n  # nothing within the bound: the nearest anyway
+                if lonely.any():
+                    d_l, j_l = tree.query(q[i][lonely], k)
+                    d_i[lonely], j_i[lonely] = d_l.reshape(-1, k), j_l.reshape(-1, k)
+                dist[i], idx[i] = d_i, j_i
             return (
                 torch.from_numpy(dist**2).to(query.dtype).to(query.device),
                 torch.from_numpy(idx).to(query.device),
@@ -121,18 +140,29 @@ def knn(
         return d2, torch.gather(idx, -1, order)
 
 
-def farthest_point_sample(xyz: torch.Tensor, n_centres: int) -> torch.Tensor:
+def farthest_point_sample(
+    xyz: torch.Tensor, n_centres: int, backend: str | None = None
+) -> torch.Tensor:
     """Farthest point sampling: (B, N, 3) points -> (B, S) indices of S = ``n_centres``.
 
     The first centre is the point farthest from the cloud's centroid; each next one
     maximises the distance to the nearest centre chosen so far,
         c_{k+1} = argmax_j min_{i <= k} ||x_j - x_{c_i}||^2,
-    ties to the lowest index. Vectorised over the batch; S iterations.
+    ties to the lowest index. Vectorised over the batch; S sequential iterations, so
+    the cost is per-iteration overhead: ``backend`` "numpy" (the CPU default, a few
+    in-place array operations per iteration, ~3x faster than torch's there) or
+    "torch" (other devices), which give the same centres.
     """
     b, n, _ = xyz.shape
     if not 1 <= n_centres <= n:
         raise ValueError(f"n_centres must be in [1, {n}], got {n_centres}.")
+    if backend is None:
+        backend = "numpy" if xyz.device.type == "cpu" else "torch"
+    if backend not in ("numpy", "torch"):
+        raise ValueError(f"backend must be 'numpy', 'torch' or None, got {backend!r}.")
     with torch.no_grad():
+        if backend == "numpy":
+            return torch.from_numpy(_farthest_point_sample_numpy(xyz.detach().numpy(), n_centres))
         rows = torch.arange(b, device=xyz.device)
         out = torch.empty((b, n_centres), dtype=torch.long, device=xyz.device)
         centroid = xyz.mean(dim=1, keepdim=True)
@@ -143,6 +173,31 @@ def farthest_point_sample(xyz: torch.Tensor, n_centres: int) -> torch.Tensor:
             d = ((xyz - xyz[rows, current][:, None, :]) ** 2).sum(-1)
             nearest = torch.minimum(nearest, d)
             current = nearest.argmax(dim=1)
+    return out
+
+
+def _farthest_point_sample_numpy(xyz: np.ndarray, n_centres: int) -> np.ndarray:
+    """``farthest_point_sample`` on a (B, N, 3) array, coordinates as (3, B, N) planes."""
+    b, n, _ = xyz.shape
+    planes = np.ascontiguousarray(xyz.transpose(2, 0, 1))  # (3, B, N)
+    flat = planes.reshape(3, -1)
+    offsets = np.arange(b) * n
+    out = np.empty((b, n_centres), dtype=np.int64)
+    current = ((xyz - xyz.mean(axis=1, keepdims=True)) ** 2).sum(-1).argmax(axis=1)
+    nearest = np.full((b, n), np.inf, dtype=xyz.dtype)
+    d = np.empty((b, n), dtype=xyz.dtype)
+    t = np.empty((b, n), dtype=xyz.dtype)
+    for k in range(n_centres):
+        out[:, k] = current
+        centre = flat[:, offsets + current]  # (3, B)
+        np.subtract(planes[0], centre[0][:, None], out=d)
+        d *= d
+        for axis in (1, 2):
+            np.subtract(planes[axis], centre[axis][:, None], out=t)
+            t *= t
+            d += t
+        np.minimum(nearest, d, out=nearest)
+        current = nearest.argmax(axis=1)
     return out
 
 
@@ -163,7 +218,7 @@ def ball_query(
     """
     n = xyz.shape[1]
     k_eff = min(k, n)
-    d2, near = knn(centres, xyz, k_eff, backend)
+    d2, near = knn(centres, xyz, k_eff, backend, within_m=radius_m)
     near = torch.where(d2 <= radius_m**2, near, near[..., :1])
     if k_eff < k:
         near = torch.cat([near, near[..., :1].expand(-1, -1, k - k_eff)], dim=-1)
@@ -226,20 +281,29 @@ def sample_pixels(
 # ---------------------------------------------------------------- layers
 
 
-def _mlp2d(c_in: int, widths: list[int]) -> nn.Sequential:
-    layers: list[nn.Module] = []
-    for c in widths:
-        layers += [nn.Conv2d(c_in, c, 1, bias=False), nn.BatchNorm2d(c), nn.ReLU(inplace=True)]
-        c_in = c
-    return nn.Sequential(*layers)
+class SharedMLP(nn.Module):
+    """The same MLP on every point: (..., C_in) -> (..., C_out), channels last.
 
+    Each layer is linear (no bias), batch norm over all points of the batch, ReLU: the
+    1x1 convolutions of the original, written as matrix products on channel-last
+    tensors, which on the CPU avoid a permute and the im2col path of a 1x1 conv.
+    """
 
-def _mlp1d(c_in: int, widths: list[int]) -> nn.Sequential:
-    layers: list[nn.Module] = []
-    for c in widths:
-        layers += [nn.Conv1d(c_in, c, 1, bias=False), nn.BatchNorm1d(c), nn.ReLU(inplace=True)]
-        c_in = c
-    return nn.Sequential(*layers)
+    def __init__(self, c_in: int, widths: list[int]):
+        super().__init__()
+        self.linears = nn.ModuleList()
+        self.norms = nn.ModuleList()
+        for c in widths:
+            self.linears.append(nn.Linear(c_in, c, bias=False))
+            self.norms.append(nn.BatchNorm1d(c))
+            c_in = c
+
+    def forward(self, x: torch.Tensor) -> torch.Tensor:
+        lead = x.shape[:-1]
+        x = x.reshape(-1, x.shape[-1])
+        for linear, norm in zip(self.linears, self.norms, strict=True):
+            x = torch.relu(norm(linear(x)))
+        return x.reshape(*lead, x.shape[-1])
 
 
 class SetAbstraction(nn.Module):
@@ -248,7 +312,7 @@ class SetAbstraction(nn.Module):
     def __init__(self, n_centres: int, radius_m: float, k: int, c_in: int, widths: list[int]):
         super().__init__()
         self.n_centres, self.radius_m, self.k = int(n_centres), float(radius_m), int(k)
-        self.mlp = _mlp2d(c_in + 3, widths)
+        self.mlp = SharedMLP(c_in + 3, widths)
 
     def forward(self, xyz: torch.Tensor, feats: torch.Tensor):
         """xyz (B, N, 3), feats (B, N, F) -> centres (B, S, 3), features (B, S, F')."""
@@ -257,8 +321,7 @@ class SetAbstraction(nn.Module):
         group = ball_query(xyz, centres, self.radius_m, self.k)  # (B, S, K)
         rel = (gather_points(xyz, group) - centres[:, :, None]) / self.radius_m
         grouped = torch.cat([rel, gather_points(feats, group)], dim=-1)  # (B, S, K, 3+F)
-        out = self.mlp(grouped.permute(0, 3, 1, 2))  # (B, F', S, K)
-        return centres, out.amax(dim=-1).transpose(1, 2)
+        return centres, self.mlp(grouped).amax(dim=2)  # (B, S, F')
 
 
 class FeaturePropagation(nn.Module):
@@ -266,13 +329,12 @@ class FeaturePropagation(nn.Module):
 
     def __init__(self, c_coarse: int, c_skip: int, widths: list[int]):
         super().__init__()
-        self.mlp = _mlp1d(c_coarse + c_skip, widths)
+        self.mlp = SharedMLP(c_coarse + c_skip, widths)
 
     def forward(self, xyz_fine, xyz_coarse, feats_fine, feats_coarse) -> torch.Tensor:
         """-> (B, N_fine, F') features of the fine level."""
         up = three_nn_interpolate(xyz_fine, xyz_coarse, feats_coarse)
-        x = torch.cat([up, feats_fine], dim=-1).transpose(1, 2)
-        return self.mlp(x).transpose(1, 2)
+        return self.mlp(torch.cat([up, feats_fine], dim=-1))
 
 
 # ---------------------------------------------------------------- the network
@@ -293,6 +355,9 @@ class PointNet2Seg(nn.Module):
         width: channels of level 1; level k's MLP is (w 2^(k-1), w 2^(k-1), w 2^k),
             feature propagation mirrors it and the output features have d = width.
         coord_scale_m: metres per unit of the per-point input features.
+        loss_at: where training scores the network (``training_outputs``): "points"
+            (the N sampled points, as PointNet++ trains) or "pixels" (every valid
+            pixel, through the interpolation evaluation uses).
     """
 
     task = "segmentation"
@@ -309,6 +374,7 @@ class PointNet2Seg(nn.Module):
         neighbours: int = 16,
         width: int = 16,
         coord_scale_m: float = 20.0,
+        loss_at: str = "points",
     ):
         super().__init__()
         if grid is None:
@@ -333,6 +399,9 @@ class PointNet2Seg(nn.Module):
                 "radii_m, neighbours, width and coord_scale_m must be positive, got "
                 f"{radii_m}, {neighbours}, {width}, {coord_scale_m}."
             )
+        if loss_at not in ("points", "pixels"):
+            raise ValueError(f"loss_at must be 'points' or 'pixels', got {loss_at!r}.")
+        self.loss_at = loss_at
         directions = np.asarray(grid.directions(), dtype=np.float32)
         if directions.ndim != 3 or directions.shape[-1] != 3:
             raise ValueError(f"grid.directions() must be (rows, cols, 3), got {directions.shape}.")
@@ -363,13 +432,16 @@ class PointNet2Seg(nn.Module):
         self.init_weights()
 
     def init_weights(self) -> None:
-        """He-initialised 1x1 convolutions, unit/zero batch norm, default head; the point
-        sampler's seed is drawn from the (seeded) global RNG too."""
+        """He-initialised shared MLPs (as their 1x1 convolutions would be), unit/zero
+        batch norm, default head; the point sampler's seed is drawn from the (seeded)
+        global RNG too."""
         for m in self.modules():
-            if isinstance(m, nn.Conv1d | nn.Conv2d):
-                nn.init.kaiming_normal_(m.weight, mode="fan_out", nonlinearity="relu")
-            elif isinstance(m, nn.BatchNorm1d | nn.BatchNorm2d | nn.Linear):
-                m.reset_parameters()
+            if isinstance(m, SharedMLP):
+                for linear in m.linears:
+                    nn.init.kaiming_normal_(linear.weight, mode="fan_out", nonlinearity="relu")
+                for norm in m.norms:
+                    norm.reset_parameters()
+        self.head.reset_parameters()
         self._sample_seed = int(torch.randint(0, 2**62, (1,)).item())
         self._generator = None
 
@@ -400,8 +472,9 @@ class PointNet2Seg(nn.Module):
             f = fp(xyzs[k], xyzs[k + 1], fs[k], f)
         return f
 
-    def forward(self, x: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
-        """x (B, 2, H, W) range (m) and validity -> logits (B, C, H, W), features (B, d, H, W)."""
+    def _sampled_points(self, x: torch.Tensor):
+        """x (B, 2, H, W) -> pixel xyz (B, P, 3), validity (B, P), sampled pixels (B, N)
+        and the point network's features at them (B, N, d)."""
         b, _, h, w = x.shape
         if (h, w) != tuple(self.directions.shape[:2]):
             raise ValueError(
@@ -416,9 +489,32 @@ class PointNet2Seg(nn.Module):
         pts = gather_points(xyz, idx)
         pts_range_m = torch.gather(range_m, 1, idx)
         feats = self.point_forward(pts, self.point_features(pts, pts_range_m))
+        return xyz, valid, idx, pts, feats
+
+    def forward(self, x: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
+        """x (B, 2, H, W) range (m) and validity -> logits (B, C, H, W), features (B, d, H, W)."""
+        b, _, h, w = x.shape
+        xyz, valid, _, pts, feats = self._sampled_points(x)
         pixel_feats = three_nn_interpolate(xyz, pts, feats)  # (B, P, d)
         logits = self.head(pixel_feats)
         keep = valid[..., None].to(logits.dtype)
         logits = (logits * keep).transpose(1, 2).reshape(b, -1, h, w)
         features = (pixel_feats * keep).transpose(1, 2).reshape(b, -1, h, w)
         return logits, features
+
+    def training_outputs(
+        self, x: torch.Tensor, target: torch.Tensor
+    ) -> tuple[torch.Tensor, torch.Tensor]:
+        """What a training step scores: x (B, 2, H, W), target (B, H, W) ->
+        (logits, target) of the same units.
+
+        ``loss_at`` "points" (PointNet++'s own training): the N sampled points, logits
+        (B, C, N) and their pixels' targets (B, N); the interpolation back to every
+        pixel, about a third of a step on the CPU, is left out. "pixels": every pixel,
+        ``forward``'s logits (B, C, H, W) and ``target`` as given.
+        """
+        if self.loss_at == "pixels":
+            return self(x)[0], target
+        _, _, idx, _, feats = self._sampled_points(x)
+        logits = self.head(feats).transpose(1, 2)  # (B, C, N)
+        return logits, torch.gather(target.reshape(target.shape[0], -1), 1, idx)

@@ -14,7 +14,7 @@ import torch.nn.functional as F
 from torch import nn
 
 from spl_al.labels import IGNORE_INDEX
-from spl_al.models import model_input, reset_parameters
+from spl_al.models import model_input, reset_parameters, training_outputs
 from spl_al.training.config import TrainConfig, deterministic_algorithms, resolve_device
 from spl_al.training.sgd import SGD
 
@@ -217,7 +217,9 @@ def train(
 
     Mini-batch SGD with momentum and weight decay, a cosine learning-rate schedule
     per step, optional horizontal flips and random shifts, masked cross-entropy
-    (segmentation ignores IGNORE_INDEX and every invalid pixel). With
+    (segmentation ignores IGNORE_INDEX and every invalid pixel) over the units
+    ``spl_al.models.training_outputs`` names (every pixel, or PointNet++'s sampled
+    points). With
     ``cfg.from_scratch`` the weights are first re-initialised from ``seed``; batch
     order, flips and shifts come from a CPU
     ``torch.Generator`` seeded with ``seed`` and dropout from the global RNG seeded from
@@ -330,10 +332,11 @@ def train(
                         xb, soft = _soft_targets(xb, yb, model.n_classes, cfg, mix_rng)
                     if cfg.channels_last:
                         xb = xb.contiguous(memory_format=torch.channels_last)
-                    logits, _ = model(xb)
                     if soft is None:
+                        logits, yb = training_outputs(model, xb, yb)
                         loss = masked_cross_entropy(logits, yb)
                     else:
+                        logits, _ = model(xb)
                         loss = soft_cross_entropy(logits, soft)
                     opt.zero_grad(set_to_none=True)
                     loss.backward()
