@@ -176,6 +176,31 @@ def test_training_scores_the_sampled_points_unless_told_pixels():
         build_model("segmentation", 2, "pointnet2", grid=grid, loss_at="rays", **SMALL)
 
 
+def test_weights_saved_with_convolution_mlps_still_load():
+    grid = _grid()
+    model = build_model("segmentation", 3, "pointnet2", seed=0, grid=grid, **SMALL).eval()
+    # the layout before the shared MLPs were matrix products: nn.Sequential(conv, batch
+    # norm, ReLU, ...) with (out, in, 1, 1) / (out, in, 1) convolution weights
+    old = {}
+    for key, value in model.state_dict().items():
+        parts = key.split(".")
+        if "linears" in parts or "norms" in parts:
+            at = parts.index("linears") if "linears" in parts else parts.index("norms")
+            i = int(parts[at + 1])
+            index = 3 * i if parts[at] == "linears" else 3 * i + 1
+            if parts[at] == "linears":
+                value = value[..., None, None] if parts[0] == "sa" else value[..., None]
+            key = ".".join([*parts[:at], str(index), *parts[at + 2 :]])
+        old[key] = value.clone()
+    assert "sa.0.mlp.0.weight" in old and old["sa.0.mlp.0.weight"].ndim == 4
+    fresh = build_model("segmentation", 3, "pointnet2", seed=1, grid=grid, **SMALL).eval()
+    fresh.load_state_dict(old)
+    depth, valid, _ = _toy_scenes(2, grid, seed=4)
+    x = model_input(model, depth, valid)
+    with torch.no_grad():
+        torch.testing.assert_close(fresh(x)[0], model(x)[0])
+
+
 def test_training_is_deterministic_for_a_seed():
     grid = _grid()
     depth, valid, labels = _toy_scenes(16, grid, seed=2)

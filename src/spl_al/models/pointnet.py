@@ -160,6 +160,8 @@ def farthest_point_sample(
         backend = "numpy" if xyz.device.type == "cpu" else "torch"
     if backend not in ("numpy", "torch"):
         raise ValueError(f"backend must be 'numpy', 'torch' or None, got {backend!r}.")
+    if backend == "numpy" and xyz.device.type != "cpu":
+        raise ValueError(f"the numpy backend needs CPU points, got them on {xyz.device}.")
     with torch.no_grad():
         if backend == "numpy":
             return torch.from_numpy(_farthest_point_sample_numpy(xyz.detach().numpy(), n_centres))
@@ -297,6 +299,19 @@ class SharedMLP(nn.Module):
             self.linears.append(nn.Linear(c_in, c, bias=False))
             self.norms.append(nn.BatchNorm1d(c))
             c_in = c
+
+    def _load_from_state_dict(self, state_dict, prefix, *args, **kwargs):
+        # weights saved before the MLPs were matrix products (1x1 convolutions in an
+        # nn.Sequential of conv, batch norm, ReLU: keys "{3i}.weight", "{3i+1}.*") load
+        for i in range(len(self.linears)):
+            conv = f"{prefix}{3 * i}.weight"
+            if conv in state_dict:
+                weight = state_dict.pop(conv)
+                state_dict[f"{prefix}linears.{i}.weight"] = weight.reshape(weight.shape[:2])
+            for key in [k for k in state_dict if k.startswith(f"{prefix}{3 * i + 1}.")]:
+                name = key[len(f"{prefix}{3 * i + 1}.") :]
+                state_dict[f"{prefix}norms.{i}.{name}"] = state_dict.pop(key)
+        super()._load_from_state_dict(state_dict, prefix, *args, **kwargs)
 
     def forward(self, x: torch.Tensor) -> torch.Tensor:
         lead = x.shape[:-1]
