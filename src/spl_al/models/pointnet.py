@@ -42,9 +42,10 @@ Inside, per image (the pixel index of every point is kept by construction):
    sample of every cloud and skips step 4, which costs about a third of a CPU step.
 
 No compiled extension: farthest point sampling is a numpy loop on the CPU and a torch
-loop elsewhere (the same centres); neighbour searches (``knn``) use scipy's cKDTree on
-the CPU and chunked torch brute force on other devices (at most ``_CHUNK_ELEMENTS``
-distances at once), which agree up to ties in distance.
+loop elsewhere (the same centres but where float rounding breaks an exact tie
+differently); neighbour searches (``knn``) use scipy's cKDTree on the CPU and chunked
+torch brute force on other devices (at most ``_CHUNK_ELEMENTS`` distances at once),
+which agree up to ties in distance.
 """
 
 from __future__ import annotations
@@ -151,7 +152,8 @@ def farthest_point_sample(
     ties to the lowest index. Vectorised over the batch; S sequential iterations, so
     the cost is per-iteration overhead: ``backend`` "numpy" (the CPU default, a few
     in-place array operations per iteration, ~3x faster than torch's there) or
-    "torch" (other devices), which give the same centres.
+    "torch" (other devices), which give the same centres but where float rounding
+    breaks an exact tie differently (each is deterministic).
     """
     b, n, _ = xyz.shape
     if not 1 <= n_centres <= n:
