@@ -211,6 +211,8 @@ def test_training_is_deterministic_for_a_seed():
         states.append(train(model, depth, valid, labels, fit, seed=seed, device="cpu").state_dict())
     assert all(torch.equal(states[0][k], states[1][k]) for k in states[0])
     assert not all(torch.equal(states[0][k], states[2][k]) for k in states[0])
+    with pytest.raises(ValueError, match="tied to its scan grid"):
+        train(model, depth, valid, labels, {**fit, "crop_width": 0.5}, seed=0, device="cpu")
 
 
 def test_range_input_keeps_metres_and_wrong_inputs_are_refused():

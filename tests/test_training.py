@@ -23,7 +23,7 @@ from spl_al.training import (
     summarise,
     train,
 )
-from spl_al.training.fit import _soft_targets, random_affine, random_shift
+from spl_al.training.fit import _soft_targets, random_affine, random_crop_columns, random_shift
 
 FAST = TrainConfig(epochs=4, batch_size=32, lr=0.05, log_every=0)
 
@@ -89,10 +89,12 @@ def test_segmentation_loss_ignores_invalid_pixels():
     assert torch.isclose(masked_cross_entropy(logits, target), expected)
 
 
-def test_segmenter_learns_and_reports_miou():
+@pytest.mark.parametrize("crop_width", [1.0, 0.5])
+def test_segmenter_learns_and_reports_miou(crop_width):
+    """Also when trained on half-width windows: prediction still takes whole images."""
     depth, valid, masks = street_groups(60, n_groups=1, seed=2)
     model = build_model("segmentation", 3, width=8, depth=2)
-    cfg = TrainConfig(epochs=30, batch_size=16, lr=0.05, log_every=0)
+    cfg = TrainConfig(epochs=30, batch_size=16, lr=0.05, log_every=0, crop_width=crop_width)
     train(model, depth[:40, 0], valid[:40, 0], masks[:40], cfg, seed=0, device="cpu")
     m = evaluate(model, depth[40:, 0], valid[40:, 0], masks[40:], levels=["medium"] * 20)
     assert m["miou"] > 0.6, m
@@ -157,6 +159,10 @@ def test_train_config_from_dict_and_steps():
     cfg = TrainConfig.from_dict({"epochs": 3, "batch_size": 10, "min_steps": 20})
     assert cfg.total_steps(35) == 20 and TrainConfig(epochs=3, batch_size=10).total_steps(35) == 9
     assert TrainConfig(steps=7).total_steps(1000) == 7
+    # steps per labeled group: five images per group (variants) train no longer than one
+    per_group = TrainConfig(epochs=3, batch_size=10, min_steps=20, steps_per_group=4)
+    assert per_group.total_steps(50, n_groups=10) == per_group.total_steps(10, n_groups=10) == 40
+    assert per_group.total_steps(3, n_groups=3) == 20 and per_group.total_steps(30) == 120
     paper = TrainConfig.paper()
     assert (paper.epochs, paper.batch_size, paper.lr, paper.momentum) == (200, 512, 0.1, 0.9)
     assert TrainConfig.from_dict(cfg.to_dict()) == cfg
@@ -171,6 +177,9 @@ def test_train_config_from_dict_and_steps():
         {"scale": 1.5},
         {"mixup": -0.1},
         {"label_smoothing": 1.0},
+        {"crop_width": 0},
+        {"steps_per_group": -1},
+        {"crop_width": 1.5},
     ):
         with pytest.raises(ValueError):
             TrainConfig.from_dict(bad)
@@ -183,6 +192,18 @@ def test_train_rejects_bad_targets():
         train(model, depth[:, 0], valid[:, 0], y + 3, FAST, 0, "cpu", io.StringIO())
     with pytest.raises(ValueError, match="targets"):
         train(model, depth[:, 0], valid[:, 0], y[:3], FAST, 0, "cpu", io.StringIO())
+    with pytest.raises(ValueError, match="groups must lie in"):
+        train(model, depth[:, 0], valid[:, 0], y, FAST, 0, "cpu", io.StringIO(), groups=5)
+
+
+def test_steps_per_group_counts_the_labeled_groups_not_the_images():
+    depth, valid, y = shapes_groups(4, n_groups=1)
+    cfg = TrainConfig(epochs=1, batch_size=4, steps_per_group=5, log_every=0)
+    for groups, steps in [(2, 10), (None, 20)]:
+        log = io.StringIO()
+        model = build_model("classification", 3, width=2)
+        train(model, depth[:, 0], valid[:, 0], y, cfg, 0, "cpu", log, groups=groups)
+        assert f", {steps} steps (" in log.getvalue()
 
 
 def test_resolve_device():
@@ -214,6 +235,22 @@ def test_geometric_augmentations_move_masks_with_their_pixels(augment):
     assert torch.all(x2.permute(1, 0, 2, 3)[:, ~inside] == 0)
     assert 0 < (~inside).float().mean() < 0.5  # something moved out of the frame
     assert not torch.equal(y2, y)
+
+
+def test_column_crops_keep_each_pixel_with_its_label_and_vary_per_image():
+    gen = torch.Generator().manual_seed(0)
+    y = torch.randint(0, 5, (16, 6, 40))
+    cols = torch.arange(40).expand(16, 6, 40)
+    # Channel 0 is the label, channel 1 the column a pixel came from.
+    x = torch.stack([y.float(), cols.float()], dim=1)
+    x2, y2 = random_crop_columns(x, y, 16, gen)
+    assert x2.shape == (16, 2, 6, 16) and y2.shape == (16, 6, 16)
+    assert torch.equal(x2[:, 0], y2.float())
+    start = x2[:, 1, 0, 0].long()
+    # each window is 16 consecutive columns of its own image, starting anywhere allowed
+    assert torch.equal(x2[:, 1].long(), (start[:, None, None] + torch.arange(16)).expand(16, 6, 16))
+    assert torch.equal(y2, torch.stack([y[i, :, s : s + 16] for i, s in enumerate(start)]))
+    assert start.min() >= 0 and start.max() <= 24 and len(set(start.tolist())) > 4
 
 
 def test_affine_augmentation_without_rotation_or_zoom_is_the_identity():

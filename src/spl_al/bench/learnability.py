@@ -121,7 +121,10 @@ def learner_score(
     targets = np.repeat(dataset.labels[labeled], depth.shape[1], axis=0)
     model = model_for(dataset, model_cfg)
     fit = TrainConfig.from_dict({**fit_cfg, "log_every": 0})
-    model = train(model, images, valid.reshape(images.shape), targets, fit, seed=seed, log=_Null())
+    model = train(
+        model, images, valid.reshape(images.shape), targets, fit, seed=seed, log=_Null(),
+        groups=len(labeled),
+    )  # fmt: skip
     test = dataset.test_idx
     metrics = evaluate(model, dataset.depth_m[test], dataset.valid[test], dataset.labels[test])
     return float(metrics["accuracy" if dataset.task == "classification" else "miou"])

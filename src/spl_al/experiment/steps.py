@@ -286,6 +286,7 @@ def _fit_and_evaluate(
         seed=step_seed(seed, round_, _TRAIN_STREAM),
         device=device,
         log=log,
+        groups=len(pool_idx),
     )
     train_seconds = time.perf_counter() - started
     test = dataset.test_idx

@@ -23,6 +23,11 @@ class TrainConfig:
         steps: total optimiser steps; when set it overrides ``epochs``.
         min_steps: at least this many steps (more epochs when the labeled set is
             small, so early rounds are not under-trained); 0 disables.
+        steps_per_group: at least this many steps per labeled group (``train``'s
+            ``groups``; each image is its own group when it is not given); 0
+            disables. The labels, not the images, then set how long a round trains:
+            a method that trains on a group's variants gets the steps of one that
+            does not at the same budget, and a larger budget trains longer.
         batch_size: images per step (the whole set when it is smaller).
         lr: peak learning rate of SGD.
         momentum, nesterov, weight_decay: SGD settings (decay on every parameter).
@@ -37,6 +42,11 @@ class TrainConfig:
             masks rotate alike); 0 disables.
         scale: random zoom of each image by a factor in [1 - scale, 1 + scale]
             (nearest sampling, like ``rotate_deg``); 0 disables.
+        crop_width: train on a random window of this fraction of the image width,
+            each image its own (masks cropped alike); 1 disables. Prediction still
+            sees whole images (a convolutional net takes any width). For range images,
+            whose classes are local, a step of half-width windows costs half a step of
+            whole ones, so the same time buys twice the steps.
         mixup: classification only: train on convex mixtures of two images of a batch
             and of their one-hot labels, the weight drawn per image from
             Beta(mixup, mixup) (Zhang et al. 2018); 0 disables.
@@ -53,6 +63,7 @@ class TrainConfig:
     epochs: int | None = 30
     steps: int | None = None
     min_steps: int = 0
+    steps_per_group: int = 0
     batch_size: int = 128
     lr: float = 0.05
     momentum: float = 0.9
@@ -63,6 +74,7 @@ class TrainConfig:
     shift: float = 0.0
     rotate_deg: float = 0.0
     scale: float = 0.0
+    crop_width: float = 1.0
     mixup: float = 0.0
     label_smoothing: float = 0.0
     from_scratch: bool = True
@@ -85,6 +97,7 @@ class TrainConfig:
         if self.epochs is None and self.steps is None:
             raise ValueError("TrainConfig needs epochs or steps; both are None.")
         positive_int("min_steps", self.min_steps, minimum=0)
+        positive_int("steps_per_group", self.steps_per_group, minimum=0)
         positive_int("batch_size", self.batch_size)
         positive_int("log_every", self.log_every, minimum=0)
         positive_int("num_threads", self.num_threads, allow_none=True)
@@ -101,6 +114,14 @@ class TrainConfig:
                 raise ValueError(f"TrainConfig.{name} must be a number, got {value!r}.")
             if not low <= value < high:
                 raise ValueError(f"TrainConfig.{name} must lie in [{low}, {high}), got {value!r}.")
+        if (
+            isinstance(self.crop_width, bool)
+            or not isinstance(self.crop_width, int | float)
+            or not 0 < self.crop_width <= 1
+        ):
+            raise ValueError(
+                f"TrainConfig.crop_width must be a number in (0, 1], got {self.crop_width!r}."
+            )
         for name in ("lr", "momentum", "weight_decay", "mixup"):
             value = getattr(self, name)
             if isinstance(value, bool) or not isinstance(value, int | float) or not value >= 0:
@@ -131,11 +152,15 @@ class TrainConfig:
     def to_dict(self) -> dict:
         return asdict(self)
 
-    def total_steps(self, n_images: int) -> int:
-        """Optimiser steps for a training set of ``n_images`` images."""
+    def total_steps(self, n_images: int, n_groups: int | None = None) -> int:
+        """Optimiser steps for ``n_images`` training images from ``n_groups`` labeled
+        groups (None: one group per image):
+        max(steps or epochs * (n_images // batch_size), min_steps,
+        steps_per_group * n_groups)."""
         per_epoch = max(1, n_images // self.batch_size)
         steps = self.steps if self.steps is not None else self.epochs * per_epoch
-        return max(steps, self.min_steps)
+        groups = n_images if n_groups is None else n_groups
+        return max(steps, self.min_steps, self.steps_per_group * groups)
 
 
 def resolve_device(name: str | torch.device | None = None) -> torch.device:

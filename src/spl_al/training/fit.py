@@ -112,6 +112,29 @@ def random_shift(
     return x, y
 
 
+def random_crop_columns(
+    x: torch.Tensor, y: torch.Tensor | None, width_px: int, gen: torch.Generator
+) -> tuple[torch.Tensor, torch.Tensor | None]:
+    """Keep a random window of ``width_px`` columns of each image of a batch.
+
+    Args:
+        x: (B, C, H, W) network input.
+        y: (B, H, W) masks (cropped alike) or None.
+        width_px: W' <= W, the window width; offsets are uniform on [0, W - W'].
+        gen: CPU generator of the offsets.
+
+    Returns:
+        x (B, C, H, W') and y (B, H, W') or None.
+    """
+    b, _, _, w = x.shape
+    start = torch.randint(0, w - width_px + 1, (b,), generator=gen).to(x.device)
+    cols = start[:, None] + torch.arange(width_px, device=x.device)[None]  # (B, W')
+    x = torch.take_along_dim(x, cols[:, None, None, :].expand(-1, x.shape[1], x.shape[2], -1), 3)
+    if y is not None:
+        y = torch.take_along_dim(y, cols[:, None, :].expand(-1, y.shape[1], -1), 2)
+    return x, y
+
+
 def random_affine(
     x: torch.Tensor,
     y: torch.Tensor | None,
@@ -212,6 +235,7 @@ def train(
     seed: int = 0,
     device: str | torch.device | None = None,
     log: str | os.PathLike | TextIO | None = None,
+    groups: int | None = None,
 ) -> nn.Module:
     """Train ``model`` on images and their labels (or masks); returns the model.
 
@@ -237,6 +261,8 @@ def train(
         seed: seed of initialisation, batch order and augmentation.
         device: "auto"/None, "cpu", "cuda" (``resolve_device``).
         log: where progress lines go: None = stderr, a path (appended) or a stream.
+        groups: how many labeled groups the images come from (for
+            ``cfg.steps_per_group``; None: each image is its own group).
     """
     cfg = cfg if isinstance(cfg, TrainConfig) else TrainConfig.from_dict(cfg)
     task = getattr(model, "task", None)
@@ -249,6 +275,11 @@ def train(
         raise ValueError(f"depth_m must have shape (n, H, W) with n >= 1, got {depth_m.shape}.")
     n = depth_m.shape[0]
     t = check_targets(task, targets, n, depth_m.shape[1:], model.n_classes)
+    if cfg.crop_width < 1 and getattr(model, "needs_grid", False):
+        raise ValueError(
+            f"crop_width {cfg.crop_width} needs a model that takes any image width; "
+            f"{type(model).__name__} is tied to its scan grid: use crop_width 1."
+        )
     dev = resolve_device(device)
     if cfg.num_threads is not None:
         torch.set_num_threads(cfg.num_threads)
@@ -275,8 +306,11 @@ def train(
     )
     batch = min(cfg.batch_size, n)
     shift_px = tuple(round(cfg.shift * s) for s in depth_m.shape[1:])
+    crop_px = max(1, round(cfg.crop_width * depth_m.shape[2]))
     per_epoch = max(1, n // batch)  # drop the ragged last batch; the next permutation covers it
-    total = cfg.total_steps(n)
+    if groups is not None and not 1 <= int(groups) <= n:
+        raise ValueError(f"groups must lie in [1, {n}] (the images), got {groups}.")
+    total = cfg.total_steps(n, groups)
     n_epochs = math.ceil(total / per_epoch)
     progress = ProgressLog(log)
     progress.line(
@@ -325,6 +359,8 @@ def train(
                         xb, masks = random_shift(xb, masks, shift_px, gen)
                     if cfg.rotate_deg > 0 or cfg.scale > 0:
                         xb, masks = random_affine(xb, masks, cfg.rotate_deg, cfg.scale, gen)
+                    if crop_px < depth_m.shape[2]:
+                        xb, masks = random_crop_columns(xb, masks, crop_px, gen)
                     if task == "segmentation":
                         yb = masks
                     soft = None
