@@ -23,7 +23,13 @@ from spl_al.training import (
     summarise,
     train,
 )
-from spl_al.training.fit import _soft_targets, random_affine, random_crop_columns, random_shift
+from spl_al.training.fit import (
+    _soft_targets,
+    balanced_class_weights,
+    random_affine,
+    random_crop_columns,
+    random_shift,
+)
 
 FAST = TrainConfig(epochs=4, batch_size=32, lr=0.05, log_every=0)
 
@@ -89,12 +95,31 @@ def test_segmentation_loss_ignores_invalid_pixels():
     assert torch.isclose(masked_cross_entropy(logits, target), expected)
 
 
-@pytest.mark.parametrize("crop_width", [1.0, 0.5])
-def test_segmenter_learns_and_reports_miou(crop_width):
-    """Also when trained on half-width windows: prediction still takes whole images."""
+def test_balanced_loss_weights_each_class_by_its_count_by_hand():
+    # units: class 0 three times, class 1 once, one ignored; power 1 = inverse frequency
+    target = torch.tensor([[0, 0, 0, 1, IGNORE_INDEX]])
+    w = balanced_class_weights(target, 3, 1.0)
+    # n^-1 = (1/3, 1, 0), scaled to a mean weight of 1 per unit: 4 / (3 * 1/3 + 1 * 1) = 2
+    torch.testing.assert_close(w, torch.tensor([2 / 3, 2.0, 0.0]))
+    logits = torch.randn(1, 3, 5)
+    nll = -torch.log_softmax(logits, 1)[0, target[0, :4], torch.arange(4)]
+    expected = (w[0] * nll[:3].sum() + w[1] * nll[3]) / (3 * w[0] + w[1])
+    torch.testing.assert_close(masked_cross_entropy(logits, target, w), expected)
+    # equal weights are the plain mean
+    torch.testing.assert_close(
+        masked_cross_entropy(logits, target, torch.ones(3)), masked_cross_entropy(logits, target)
+    )
+
+
+@pytest.mark.parametrize(("crop_width", "balance"), [(1.0, 0.0), (0.5, 0.5)])
+def test_segmenter_learns_and_reports_miou(crop_width, balance):
+    """Also on half-width windows (prediction still takes whole images) with a
+    class-balanced loss."""
     depth, valid, masks = street_groups(60, n_groups=1, seed=2)
     model = build_model("segmentation", 3, width=8, depth=2)
-    cfg = TrainConfig(epochs=30, batch_size=16, lr=0.05, log_every=0, crop_width=crop_width)
+    cfg = TrainConfig(
+        epochs=30, batch_size=16, lr=0.05, log_every=0, crop_width=crop_width, balance=balance
+    )
     train(model, depth[:40, 0], valid[:40, 0], masks[:40], cfg, seed=0, device="cpu")
     m = evaluate(model, depth[40:, 0], valid[40:, 0], masks[40:], levels=["medium"] * 20)
     assert m["miou"] > 0.6, m
@@ -179,6 +204,7 @@ def test_train_config_from_dict_and_steps():
         {"label_smoothing": 1.0},
         {"crop_width": 0},
         {"steps_per_group": -1},
+        {"balance": -0.5},
         {"crop_width": 1.5},
     ):
         with pytest.raises(ValueError):

@@ -50,6 +50,10 @@ class TrainConfig:
         mixup: classification only: train on convex mixtures of two images of a batch
             and of their one-hot labels, the weight drawn per image from
             Beta(mixup, mixup) (Zhang et al. 2018); 0 disables.
+        balance: weight each class's loss by n_c^-balance, n_c its units (pixels,
+            points or images) in the training targets, so rare classes count more
+            (0.5: inverse square root, 1: inverse frequency); 0 disables. Applies to
+            the hard-label loss (not to mixup or label-smoothing targets).
         label_smoothing: classification only: the target puts this mass uniformly
             over the classes; 0 disables.
         from_scratch: re-initialise the weights from the seed before training.
@@ -75,6 +79,7 @@ class TrainConfig:
     rotate_deg: float = 0.0
     scale: float = 0.0
     crop_width: float = 1.0
+    balance: float = 0.0
     mixup: float = 0.0
     label_smoothing: float = 0.0
     from_scratch: bool = True
@@ -122,7 +127,7 @@ class TrainConfig:
             raise ValueError(
                 f"TrainConfig.crop_width must be a number in (0, 1], got {self.crop_width!r}."
             )
-        for name in ("lr", "momentum", "weight_decay", "mixup"):
+        for name in ("lr", "momentum", "weight_decay", "mixup", "balance"):
             value = getattr(self, name)
             if isinstance(value, bool) or not isinstance(value, int | float) or not value >= 0:
                 raise ValueError(f"TrainConfig.{name} must be a number >= 0, got {value!r}.")

@@ -19,12 +19,16 @@ from spl_al.training.config import TrainConfig, deterministic_algorithms, resolv
 from spl_al.training.sgd import SGD
 
 
-def masked_cross_entropy(logits: torch.Tensor, target: torch.Tensor) -> torch.Tensor:
-    """Mean of -log softmax(logits)[target] over units whose target is not IGNORE_INDEX.
+def masked_cross_entropy(
+    logits: torch.Tensor, target: torch.Tensor, class_weight: torch.Tensor | None = None
+) -> torch.Tensor:
+    """Weighted mean of -log softmax(logits)[target] over units whose target is not
+    IGNORE_INDEX: sum_u w[y_u] nll_u / sum_u w[y_u] (w = 1 without ``class_weight``).
 
     Args:
         logits: (B, C) or (B, C, H, W).
         target: (B,) or (B, H, W) int64 class indices, IGNORE_INDEX where ignored.
+        class_weight: (C,) weight of each class, or None.
 
     Written with a one-hot mask instead of ``F.cross_entropy`` because CUDA's NLL
     loss kernels are not deterministic; returns 0 when every unit is ignored.
@@ -33,8 +37,21 @@ def masked_cross_entropy(logits: torch.Tensor, target: torch.Tensor) -> torch.Te
     classes = torch.arange(logits.shape[1], device=logits.device)
     onehot = target.unsqueeze(1) == classes.view(1, -1, *([1] * (logits.ndim - 2)))
     nll = -torch.where(onehot, logp, 0.0).sum(dim=1)
-    kept = (target != IGNORE_INDEX).sum()
-    return nll.sum() / kept.clamp_min(1)
+    if class_weight is None:
+        kept = (target != IGNORE_INDEX).sum()
+        return nll.sum() / kept.clamp_min(1)
+    w = class_weight.to(logp.device, logp.dtype)
+    unit_w = torch.where(onehot, w.view(1, -1, *([1] * (logits.ndim - 2))), 0.0).sum(dim=1)
+    return (unit_w * nll).sum() / unit_w.sum().clamp_min(1e-12)
+
+
+def balanced_class_weights(targets: torch.Tensor, n_classes: int, power: float) -> torch.Tensor:
+    """(C,) weights n_c^-power of the classes in ``targets`` (IGNORE_INDEX left out),
+    scaled so that the mean weight per unit is 1; classes absent from it get 0."""
+    kept = targets[targets != IGNORE_INDEX].flatten()
+    counts = torch.bincount(kept, minlength=n_classes)[:n_classes].double()
+    w = torch.where(counts > 0, counts.clamp_min(1) ** -float(power), 0.0)
+    return (w * counts.sum() / (w * counts).sum().clamp_min(1e-12)).float()
 
 
 def check_targets(task: str, targets, n_images: int, image_shape, n_classes: int) -> np.ndarray:
@@ -290,6 +307,11 @@ def train(
         y_all = torch.where(x_all[:, 1] > 0, y_all, IGNORE_INDEX)  # voids carry no label
     x_all, y_all = x_all.to(dev), y_all.to(dev)
 
+    class_weight = (
+        balanced_class_weights(y_all, model.n_classes, cfg.balance).to(dev)
+        if cfg.balance > 0
+        else None
+    )
     if cfg.from_scratch:
         reset_parameters(model, seed)
     model.to(dev)
@@ -370,7 +392,7 @@ def train(
                         xb = xb.contiguous(memory_format=torch.channels_last)
                     if soft is None:
                         logits, yb = training_outputs(model, xb, yb)
-                        loss = masked_cross_entropy(logits, yb)
+                        loss = masked_cross_entropy(logits, yb, class_weight)
                     else:
                         logits, _ = model(xb)
                         loss = soft_cross_entropy(logits, soft)
