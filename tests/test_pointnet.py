@@ -120,6 +120,36 @@ def test_network_is_permutation_equivariant():
     torch.testing.assert_close(out_perm, out[:, perm], atol=1e-5, rtol=1e-4)
 
 
+def test_input_features_are_standardised_per_channel():
+    """Training: each of (x, y, z, r) has zero mean and unit variance over the batch's
+    points, however unequal their spreads in metres; evaluation: the running statistics."""
+    model = build_model("segmentation", 2, "pointnet2", seed=0, grid=_grid(), **SMALL).train()
+    rng = np.random.default_rng(0)
+    xyz = torch.from_numpy(rng.normal(0, 1, (4, 128, 3)) * [20.0, 40.0, 0.5] + [0, 30, -1.8])
+    xyz = xyz.float()
+    feats = model.point_features(xyz, xyz.norm(dim=-1)).reshape(-1, 4)
+    torch.testing.assert_close(feats.mean(0), torch.zeros(4), atol=1e-4, rtol=0)
+    torch.testing.assert_close(feats.std(0, unbiased=False), torch.ones(4), atol=1e-3, rtol=0)
+    norm = model.input_norm
+    raw_m = torch.cat([xyz, xyz.norm(dim=-1, keepdim=True)], dim=-1).reshape(-1, 4)
+    torch.testing.assert_close(norm.running_mean, 0.1 * raw_m.mean(0))  # one update from 0
+    model.eval()
+    expected = (raw_m - norm.running_mean) / (norm.running_var + norm.eps).sqrt()
+    got = model.point_features(xyz, xyz.norm(dim=-1)).reshape(-1, 4)
+    torch.testing.assert_close(got, expected)
+
+    plain = build_model("segmentation", 2, "pointnet2", grid=_grid(), input_norm=False, **SMALL)
+    assert plain.input_norm is None  # metres over coord_scale_m (20), as they are
+    torch.testing.assert_close(
+        plain.point_features(xyz, xyz.norm(dim=-1)).reshape(-1, 4), raw_m / 20
+    )
+    # weights of one setting do not silently load into the other
+    with pytest.raises(ValueError, match=r"without input normalisation; .* input_norm: false"):
+        model.load_state_dict(plain.state_dict())
+    with pytest.raises(ValueError, match=r"with input normalisation; .* input_norm: true"):
+        plain.load_state_dict(model.state_dict())
+
+
 def _toy_scenes(n: int, grid: ScanGrid, seed: int):
     """Ground (class 0) below a wall (class 1) at a random distance; 10% voids."""
     rng = np.random.default_rng(seed)

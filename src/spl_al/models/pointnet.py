@@ -13,7 +13,12 @@ Inside, per image (the pixel index of every point is kept by construction):
 
 1. Points. Pixel p with range r(p) is the point xyz(p) = r(p) * u(p), u(p) the unit
    ray direction of its grid cell (``ScanGrid.directions``: X right, Y forward, Z up),
-   with input features f(p) = (x, y, z, r) / coord_scale_m.
+   with input features f(p) = (x, y, z, r) in metres, each channel standardised over
+   the batch's points by a batch norm without learned scale or shift (``input_norm``;
+   running statistics at evaluation), or (x, y, z, r) / coord_scale_m without it.
+   Why: in a street scan x, y and r spread over tens of metres while z, which tells
+   road from sidewalk and car roofs from walls, spreads over ~2 m; unscaled, its
+   first-layer weights would learn far slower (README: PointNet++).
 2. Sampling (``sample_pixels``): N = ``n_points`` of the valid pixels. Training: a
    uniformly random order of the valid pixels from the model's own seeded CPU
    generator (reset with the weights), its first N (without replacement); fewer than
@@ -371,7 +376,11 @@ class PointNet2Seg(nn.Module):
         neighbours: K, points per ball.
         width: channels of level 1; level k's MLP is (w 2^(k-1), w 2^(k-1), w 2^k),
             feature propagation mirrors it and the output features have d = width.
-        coord_scale_m: metres per unit of the per-point input features.
+        coord_scale_m: metres per unit of the per-point input features when
+            ``input_norm`` is False.
+        input_norm: standardise the input features (x, y, z, r) per channel with a
+            batch norm (no learned scale or shift); False feeds (x, y, z, r) /
+            coord_scale_m.
         loss_at: where training scores the network (``training_outputs``): "points"
             (the N sampled points, as PointNet++ trains) or "pixels" (every valid
             pixel, through the interpolation evaluation uses).
@@ -392,6 +401,7 @@ class PointNet2Seg(nn.Module):
         width: int = 16,
         coord_scale_m: float = 20.0,
         loss_at: str = "points",
+        input_norm: bool = True,
     ):
         super().__init__()
         if grid is None:
@@ -444,6 +454,7 @@ class PointNet2Seg(nn.Module):
             self.fp.append(FeaturePropagation(c_coarse, skips[k], [2 * w, w] if k else [w, w]))
             c_coarse = w
         self.head = nn.Linear(width, self.n_classes)
+        self.input_norm = nn.BatchNorm1d(4, affine=False) if input_norm else None
         self._sample_seed = 0
         self._generator: torch.Generator | None = None
         self.init_weights()
@@ -459,8 +470,22 @@ class PointNet2Seg(nn.Module):
                 for norm in m.norms:
                     norm.reset_parameters()
         self.head.reset_parameters()
+        if self.input_norm is not None:
+            self.input_norm.reset_running_stats()
         self._sample_seed = int(torch.randint(0, 2**62, (1,)).item())
         self._generator = None
+
+    def _load_from_state_dict(self, state_dict, prefix, *args, **kwargs):
+        # weights from a model with the other input_norm setting were trained on other
+        # inputs: refuse them with the fix, not a list of missing keys
+        saved = f"{prefix}input_norm.running_mean" in state_dict
+        if saved != (self.input_norm is not None):
+            raise ValueError(
+                f"these PointNet++ weights were saved {'with' if saved else 'without'} "
+                f"input normalisation; build the model with input_norm: {str(saved).lower()} "
+                "to load them."
+            )
+        super()._load_from_state_dict(state_dict, prefix, *args, **kwargs)
 
     def _sampler(self) -> torch.Generator | None:
         if not self.training:
@@ -470,8 +495,13 @@ class PointNet2Seg(nn.Module):
         return self._generator
 
     def point_features(self, xyz_m: torch.Tensor, range_m: torch.Tensor) -> torch.Tensor:
-        """Per-point input features (B, N, 4): (x, y, z, range) / coord_scale_m."""
-        return torch.cat([xyz_m, range_m[..., None]], dim=-1) / self.coord_scale_m
+        """Per-point input features (B, N, 4): (x, y, z, range) in metres, each channel
+        standardised by ``input_norm`` (batch statistics in training, running ones in
+        evaluation); without it (x, y, z, range) / coord_scale_m."""
+        f = torch.cat([xyz_m, range_m[..., None]], dim=-1)
+        if self.input_norm is None:
+            return f / self.coord_scale_m
+        return self.input_norm(f.reshape(-1, 4)).reshape(f.shape)
 
     def point_forward(self, xyz_m: torch.Tensor, feats: torch.Tensor) -> torch.Tensor:
         """The point network: xyz (B, N, 3) metres, feats (B, N, 4) -> features (B, N, d).
