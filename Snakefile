@@ -29,6 +29,7 @@ include: "workflow/rules/al.smk"
 include: "workflow/rules/human.smk"
 include: "workflow/rules/report.smk"
 include: "workflow/rules/robustness.smk"
+include: "workflow/rules/warm.smk"
 
 
 rule all:

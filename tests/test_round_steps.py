@@ -9,7 +9,14 @@ import torch
 from al_synthetic import shapes_groups
 
 from spl_al.data import Dataset
-from spl_al.experiment.steps import train_initial, train_round, write_initial_set
+from spl_al.experiment.steps import (
+    Compute,
+    ModelFiles,
+    RoundId,
+    train_initial,
+    train_round,
+    write_initial_set,
+)
 from spl_al.strategies import StrategyInputs
 from spl_al.strategies.inputs import ARRAY_FIELDS
 
@@ -20,6 +27,14 @@ SETUP = {
     },
     "ratio_of": "train",
 }
+
+
+CPU = Compute("cpu")
+ROUND0 = RoundId("toy", "own", 1, 0)
+
+
+def _files(folder, stem):
+    return ModelFiles(folder / f"{stem}.pt", folder / f"{stem}.json", folder / f"{stem}.npz")
 
 
 def _dataset(tmp_path):
@@ -61,22 +76,17 @@ def test_shared_round0_equals_training_and_scoring_in_place(tmp_path, method, m)
     data, labeled = _dataset(tmp_path)
     setup = {**SETUP, "method": method}
     own = train_round(
-        data, labeled, setup, "toy", "own", 1, 0, tmp_path / "own.pt", tmp_path / "own.json",
-        tmp_path / "own.npz", device="cpu", log=tmp_path / "own.log",
-    )  # fmt: skip
-    fit = train_initial(
-        data, labeled, SETUP, m, 1, tmp_path / "init.pt", tmp_path / "fit.json",
-        tmp_path / "init.npz", device="cpu", log=tmp_path / "init.log",
-    )  # fmt: skip
+        data, labeled, setup, ROUND0, _files(tmp_path, "own"), CPU, log=tmp_path / "own.log"
+    )
+    initial = ModelFiles(tmp_path / "init.pt", tmp_path / "fit.json", tmp_path / "init.npz")
+    fit = train_initial(data, labeled, SETUP, m, 1, initial, CPU, log=tmp_path / "init.log")
     assert fit["dataset"] == {
         "task": "classification", "n_samples": 30, "n_train": 24, "n_variants": 2,
         "synthetic_standin": False,
     }  # fmt: skip
     shared = train_round(
-        data, labeled, setup, "toy", "own", 1, 0, tmp_path / "shared.pt",
-        tmp_path / "shared.json", tmp_path / "shared.npz", device="cpu",
-        initial_fit=(tmp_path / "init.pt", tmp_path / "fit.json", tmp_path / "init.npz"),
-    )  # fmt: skip
+        data, labeled, setup, ROUND0, _files(tmp_path, "shared"), CPU, initial=initial
+    )
     timing = {"train_seconds", "score_seconds", "seconds"}
     assert {k: v for k, v in shared.items() if k not in timing} == {
         k: v for k, v in own.items() if k not in timing
@@ -94,12 +104,9 @@ def test_shared_round0_equals_training_and_scoring_in_place(tmp_path, method, m)
 
 def test_a_shared_fit_of_other_images_is_refused(tmp_path):
     data, labeled = _dataset(tmp_path)
-    train_initial(data, labeled, SETUP, 0, 1, tmp_path / "init.pt", tmp_path / "fit.json",
-                  tmp_path / "init.npz", device="cpu", log=tmp_path / "init.log")  # fmt: skip
+    initial = ModelFiles(tmp_path / "init.pt", tmp_path / "fit.json", tmp_path / "init.npz")
+    train_initial(data, labeled, SETUP, 0, 1, initial, CPU, log=tmp_path / "init.log")
     setup = {**SETUP, "method": {"strategy": "duis", "use_variants": True}}
+    duis = RoundId("toy", "duis", 1, 0)
     with pytest.raises(ValueError, match="trained on 6 images, but round 0 of duis trains on 18"):
-        train_round(
-            data, labeled, setup, "toy", "duis", 1, 0, tmp_path / "m.pt", tmp_path / "m.json",
-            tmp_path / "s.npz", device="cpu",
-            initial_fit=(tmp_path / "init.pt", tmp_path / "fit.json", tmp_path / "init.npz"),
-        )  # fmt: skip
+        train_round(data, labeled, setup, duis, _files(tmp_path, "m"), CPU, initial=initial)

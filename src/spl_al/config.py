@@ -70,6 +70,20 @@ def real_captures_dir(config: dict, environ=os.environ) -> Path | None:
     return folder
 
 
+def dataset_precision(config: dict, dataset: str) -> str:
+    """The precision a dataset's models run at as configured ("auto", "fp32", ...): the
+    dataset's own ``precision``, else the top-level one, else "auto"."""
+    entry = config["datasets"][dataset]
+    return entry.get("precision") or config.get("precision") or "auto"
+
+
+def train_setup(config: dict, dataset: str) -> dict:
+    """A dataset's ``train`` entry (``model``, ``fit``) with the precision in ``fit``."""
+    train = config["datasets"][dataset]["train"]
+    fit = {**train.get("fit", {}), "precision": dataset_precision(config, dataset)}
+    return {**train, "fit": fit}
+
+
 def write_config(config: dict, path) -> Path:
     """Write the effective configuration of a run as YAML (atomically, keys sorted)."""
     import yaml

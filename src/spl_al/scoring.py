@@ -35,7 +35,9 @@ from spl_al.training.predict import iter_forward, pool_pixels
 DEFAULT_BATCH_IMAGES = {"classification": 256, "segmentation": 16}
 
 
-def _group_outputs(model, depth_m, valid, idx, n_images, device, pixel_features=False):
+def _group_outputs(
+    model, depth_m, valid, idx, n_images, device, pixel_features=False, precision="fp32"
+):
     """Forward the first ``n_images`` images of groups ``idx`` in one pass.
 
     Returns probs (b, G, units, C) float32, pixel features (b, G, units, d) (segmentation
@@ -45,7 +47,7 @@ def _group_outputs(model, depth_m, valid, idx, n_images, device, pixel_features=
     b = len(idx)
     d = np.asarray(depth_m[idx, :n_images]).reshape(b * n_images, *depth_m.shape[2:])
     v = np.asarray(valid[idx, :n_images]).reshape(b * n_images, *depth_m.shape[2:])
-    ((_, probs, feats, vmask),) = iter_forward(model, d, v, device, batch_size=len(d))
+    ((_, probs, feats, vmask),) = iter_forward(model, d, v, device, len(d), precision)
     if model.task == "classification":
         return (
             probs.view(b, n_images, 1, -1).cpu().numpy(),
@@ -78,6 +80,7 @@ def compute_inputs(
     labeled_idx,
     device: str | torch.device | None = None,
     batch_size: int | None = None,
+    precision: str = "fp32",
 ) -> StrategyInputs:
     """The inputs a strategy with ``needs`` selects from, computed with ``model``.
 
@@ -90,6 +93,7 @@ def compute_inputs(
         device: "auto"/None, "cpu" or "cuda".
         batch_size: images per forward pass (default 256 for classification,
             16 for segmentation).
+        precision: of the forward passes (``spl_al.training.precision``).
 
     Returns:
         ``StrategyInputs`` with the index sets and exactly the needed parts.
@@ -119,7 +123,7 @@ def compute_inputs(
     badge_pixels = task == "segmentation" and "grad_embedding" in needs
     for s in range(0, len(unl) if scored else 0, per_batch):
         probs, pix_feats, feats, image_valid = _group_outputs(
-            model, depth_m, valid, unl[s : s + per_batch], n_images, device, badge_pixels
+            model, depth_m, valid, unl[s : s + per_batch], n_images, device, badge_pixels, precision
         )
         units_valid = None if image_valid is None else image_valid[:, 0]
         if "entropy" in needs:
@@ -148,7 +152,9 @@ def compute_inputs(
         dim = getattr(model, "feature_dim", 0)
         parts["labeled_features"] = [np.zeros((0, dim), dtype=np.float32)]
         for s in range(0, len(lab), batch_size):
-            outputs = _group_outputs(model, depth_m, valid, lab[s : s + batch_size], 1, device)
+            outputs = _group_outputs(
+                model, depth_m, valid, lab[s : s + batch_size], 1, device, precision=precision
+            )
             add("labeled_features", outputs[2][:, 0])
     arrays = {}
     for name, chunks in parts.items():

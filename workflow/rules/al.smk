@@ -52,7 +52,7 @@ rule train_initial:
         runtime=60,
         gpu=config["gpus_per_train_job"],
     params:
-        setup=lambda w: {"train": config["datasets"][w.dataset]["train"]},
+        setup=lambda w: {"train": train_setup(config, w.dataset)},
         device=config["device"],
     script:
         "../scripts/train_initial.py"

@@ -3,9 +3,11 @@ import shlex
 from pathlib import Path
 
 from snakemake.logging import logger
+from snakemake.settings.types import DeploymentMethod
 
-from spl_al.config import real_captures_dir
+from spl_al.config import dataset_precision, real_captures_dir, train_setup
 from spl_al.data.external import folder_has_levels
+from spl_al.experiment.warm import Server
 from spl_al.experiment.plan import (
     check_plan,
     dataset_method,
@@ -152,7 +154,7 @@ def train_params(wildcards):
     ).as_dict()
     method.pop("params")
     return {
-        "train": entry["train"],
+        "train": train_setup(config, wildcards.dataset),
         "method": method,
         "ratio_of": entry["al"].get("ratio_of", "train"),
     }
@@ -331,3 +333,23 @@ def robustness_outputs(dataset):
         f"{RESULTS}/{dataset}/figures/robustness.png",
         f"{RESULTS}/{dataset}/figures/robustness_diff.png",
     ]
+
+
+# Warm job processes (workflow/rules/warm.smk).
+
+
+_warm = {}
+
+
+def start_warm_worker():
+    # (not named `conda`: that word opens a rule directive for Snakemake's parser)
+    per_rule_envs = (
+        DeploymentMethod.CONDA in workflow.deployment_settings.deployment_method
+    )
+    if config.get("warm_worker", True) and workflow.local_exec and not per_rule_envs:
+        _warm["server"] = Server.start(f"{RESULTS}/logs/warm_server.log")
+
+
+def stop_warm_worker():
+    if "server" in _warm:
+        _warm.pop("server").stop()

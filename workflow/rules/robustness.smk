@@ -45,6 +45,7 @@ rule robustness_eval:
         gpu=config["gpus_per_train_job"],
     params:
         model=lambda w: config["datasets"][w.dataset]["train"]["model"],
+        precision=lambda w: dataset_precision(config, w.dataset),
         names=lambda w: {
             "dataset": w.dataset,
             "method": w.method,

@@ -1,15 +1,17 @@
-from spl_al.experiment.human import accept_labels
-from spl_al.experiment.joblog import job_log
+from spl_al.experiment.warm import run_job
 
-with job_log(snakemake.log[0], preload=("spl_al.data", "spl_al.labeling")):
-    print(
-        accept_labels(
-            snakemake.input.data,
-            snakemake.input.request,
-            snakemake.params.labels_file,
-            snakemake.input.batch,
-            snakemake.input.before or None,
-            snakemake.output.labeled,
-            snakemake.output.labels,
-        )
-    )
+run_job(
+    snakemake.log[0],
+    "spl_al.experiment.human:accept_labels",
+    dict(
+        dataset_path=snakemake.input.data,
+        request_path=snakemake.input.request,
+        labels_file=snakemake.params.labels_file,
+        batch_dir=snakemake.input.batch,
+        previous_labels=snakemake.input.before or None,
+        out_labeled=snakemake.output.labeled,
+        out_labels=snakemake.output.labels,
+    ),
+    preload=("spl_al.data", "spl_al.labeling"),
+    show=True,
+)

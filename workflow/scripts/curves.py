@@ -1,12 +1,15 @@
-from spl_al.experiment.joblog import job_log
-from spl_al.experiment.steps import make_curves
+from spl_al.experiment.warm import run_job
 
-with job_log(snakemake.log[0], preload=("matplotlib.pyplot", "spl_al.report")):
-    make_curves(
-        snakemake.input.metrics,
-        snakemake.params.methods,
-        snakemake.output.png,
-        snakemake.output.pdf,
+run_job(
+    snakemake.log[0],
+    "spl_al.experiment.report_steps:make_curves",
+    dict(
+        metrics_paths=snakemake.input.metrics,
+        methods=snakemake.params.methods,
+        png=snakemake.output.png,
+        pdf=snakemake.output.pdf,
         title=snakemake.wildcards.dataset,
         per_level=snakemake.params.levels,
-    )
+    ),
+    preload=("matplotlib.pyplot", "spl_al.report"),
+)

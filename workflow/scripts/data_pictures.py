@@ -1,11 +1,12 @@
-from spl_al.experiment.joblog import job_log
-from spl_al.experiment.steps import data_pictures
+from spl_al.experiment.warm import run_job
 
-with job_log(
+run_job(
     snakemake.log[0],
-    preload=(
-        "matplotlib.pyplot",
-        "spl_al.data",
+    "spl_al.experiment.data_steps:data_pictures",
+    dict(
+        dataset_path=snakemake.input[0],
+        contact_path=snakemake.output.contact,
+        variants_path=snakemake.output.variants,
     ),
-):
-    data_pictures(snakemake.input[0], snakemake.output.contact, snakemake.output.variants)
+    preload=("matplotlib.pyplot", "spl_al.data"),
+)

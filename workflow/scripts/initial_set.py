@@ -1,13 +1,13 @@
-from spl_al.experiment.joblog import job_log
-from spl_al.experiment.steps import initial_set
+from spl_al.experiment.warm import run_job
 
-with job_log(
+run_job(
     snakemake.log[0],
-    preload=(
-        "spl_al.data",
-        "spl_al.pool",
+    "spl_al.experiment.round_steps:initial_set",
+    dict(
+        dataset_path=snakemake.input[0],
+        al=snakemake.params.al,
+        seed=int(snakemake.wildcards.seed),
+        out_path=snakemake.output[0],
     ),
-):
-    initial_set(
-        snakemake.input[0], snakemake.params.al, int(snakemake.wildcards.seed), snakemake.output[0]
-    )
+    preload=("spl_al.data", "spl_al.pool"),
+)

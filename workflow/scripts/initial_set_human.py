@@ -1,14 +1,16 @@
-from spl_al.experiment.human import initial_set
-from spl_al.experiment.joblog import job_log
+from spl_al.experiment.warm import run_job
 
-with job_log(snakemake.log[0], preload=("spl_al.data", "spl_al.labeling")):
-    print(
-        initial_set(
-            snakemake.input[0],
-            snakemake.params.al,
-            int(snakemake.wildcards.seed),
-            snakemake.output[0],
-            oracle="human",
-            seed_labels=snakemake.params.seed_labels,
-        )
-    )
+run_job(
+    snakemake.log[0],
+    "spl_al.experiment.human:initial_set",
+    dict(
+        dataset_path=snakemake.input[0],
+        al=snakemake.params.al,
+        seed=int(snakemake.wildcards.seed),
+        out_path=snakemake.output[0],
+        oracle="human",
+        seed_labels=snakemake.params.seed_labels,
+    ),
+    preload=("spl_al.data", "spl_al.labeling"),
+    show=True,
+)

@@ -1,12 +1,14 @@
-from spl_al.experiment.human import label_batch
-from spl_al.experiment.joblog import job_log
+from spl_al.experiment.warm import run_job
 
-with job_log(snakemake.log[0], preload=("matplotlib.pyplot", "spl_al.labeling")):
-    print(
-        label_batch(
-            snakemake.input.data,
-            snakemake.input.request,
-            snakemake.params.labels_file,
-            snakemake.output[0],
-        )
-    )
+run_job(
+    snakemake.log[0],
+    "spl_al.experiment.human:label_batch",
+    dict(
+        dataset_path=snakemake.input.data,
+        request_path=snakemake.input.request,
+        labels_file=snakemake.params.labels_file,
+        out_dir=snakemake.output[0],
+    ),
+    preload=("matplotlib.pyplot", "spl_al.labeling"),
+    show=True,
+)

@@ -1,5 +1,9 @@
-from spl_al.experiment.joblog import job_log
-from spl_al.experiment.steps import make_dataset
+from spl_al.experiment.warm import run_job
 
-with job_log(snakemake.log[0], preload=("spl_al.data",)):
-    print(make_dataset(snakemake.params.entry, snakemake.output[0]))
+run_job(
+    snakemake.log[0],
+    "spl_al.experiment.data_steps:make_dataset",
+    dict(entry=snakemake.params.entry, out_path=snakemake.output[0]),
+    preload=("spl_al.data",),
+    show=True,
+)

@@ -1,22 +1,17 @@
-from spl_al.experiment.joblog import job_log
-from spl_al.experiment.steps import query_round
+from spl_al.experiment.warm import run_job
 
-w = snakemake.wildcards
-with job_log(
+run_job(
     snakemake.log[0],
-    preload=(
-        "spl_al.pool",
-        "spl_al.strategies",
+    "spl_al.experiment.round_steps:query_round",
+    dict(
+        scores_path=snakemake.input.scores,
+        labeled_path=snakemake.input.labeled,
+        method=snakemake.params.method,
+        batch=snakemake.params.batch,
+        seed=int(snakemake.wildcards.seed),
+        round_=int(snakemake.wildcards.round),
+        out_path=snakemake.output[0],
     ),
-):
-    print(
-        query_round(
-            snakemake.input.scores,
-            snakemake.input.labeled,
-            snakemake.params.method,
-            snakemake.params.batch,
-            int(w.seed),
-            int(w.round),
-            snakemake.output[0],
-        )
-    )
+    preload=("spl_al.pool", "spl_al.strategies"),
+    show=True,
+)

@@ -1,14 +1,18 @@
-from spl_al.experiment.joblog import job_log
-from spl_al.experiment.robustness import evaluate_grid
+from spl_al.experiment.jobs import Compute
+from spl_al.experiment.warm import run_job
 
-with job_log(snakemake.log[0], preload=("spl_al.data", "spl_al.training")):
-    evaluate_grid(
-        snakemake.input.data,
-        snakemake.input.grid,
-        snakemake.input.models,
-        snakemake.params.model,
-        snakemake.params.names,
-        snakemake.output[0],
-        device=snakemake.params.device,
-        threads=snakemake.threads,
-    )
+run_job(
+    snakemake.log[0],
+    "spl_al.experiment.robustness:evaluate_grid",
+    dict(
+        observed_path=snakemake.input.data,
+        shard_paths=snakemake.input.grid,
+        model_paths=snakemake.input.models,
+        model_cfg=snakemake.params.model,
+        names=snakemake.params.names,
+        out_path=snakemake.output[0],
+        compute=Compute(snakemake.params.device, snakemake.threads),
+        precision=snakemake.params.precision,
+    ),
+    preload=("spl_al.data", "spl_al.training"),
+)

@@ -1,10 +1,13 @@
-from spl_al.experiment.joblog import job_log
-from spl_al.experiment.robustness import make_grid_shard
+from spl_al.experiment.warm import run_job
 
-with job_log(snakemake.log[0], preload=("spl_al.data", "spl_al.variants")):
-    make_grid_shard(
-        snakemake.input[0],
-        snakemake.params.grid,
-        int(snakemake.wildcards.shard),
-        snakemake.output[0],
-    )
+run_job(
+    snakemake.log[0],
+    "spl_al.experiment.robustness:make_grid_shard",
+    dict(
+        observed_path=snakemake.input[0],
+        grid=snakemake.params.grid,
+        shard=int(snakemake.wildcards.shard),
+        out_path=snakemake.output[0],
+    ),
+    preload=("spl_al.data", "spl_al.variants"),
+)

@@ -1,13 +1,16 @@
-from spl_al.experiment.joblog import job_log
-from spl_al.experiment.robustness import robustness_report
+from spl_al.experiment.warm import run_job
 
 out = snakemake.output
-with job_log(snakemake.log[0], preload=("matplotlib.pyplot", "spl_al.report")):
-    robustness_report(
-        snakemake.input.evals,
-        snakemake.input.data,
-        out.table,
-        out.diff,
-        out.heatmaps,
-        out.diff_map,
-    )
+run_job(
+    snakemake.log[0],
+    "spl_al.experiment.robustness:robustness_report",
+    dict(
+        eval_paths=snakemake.input.evals,
+        observed_path=snakemake.input.data,
+        table_csv=out.table,
+        diff_csv=out.diff,
+        heatmap_png=out.heatmaps,
+        diff_png=out.diff_map,
+    ),
+    preload=("matplotlib.pyplot", "spl_al.report"),
+)

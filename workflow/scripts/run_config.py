@@ -1,5 +1,7 @@
-from spl_al.config import write_config
-from spl_al.experiment.joblog import job_log
+from spl_al.experiment.warm import run_job
 
-with job_log(snakemake.log[0]):
-    write_config(snakemake.params.config, snakemake.output[0])
+run_job(
+    snakemake.log[0],
+    "spl_al.config:write_config",
+    dict(config=snakemake.params.config, path=snakemake.output[0]),
+)

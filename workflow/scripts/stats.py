@@ -1,10 +1,13 @@
-from spl_al.experiment.joblog import job_log
-from spl_al.experiment.steps import make_stats
+from spl_al.experiment.warm import run_job
 
-with job_log(snakemake.log[0], preload=("matplotlib.pyplot", "spl_al.report")):
-    make_stats(
-        snakemake.input.metrics,
-        snakemake.params.experiments,
-        snakemake.params.sweeps,
-        dict(snakemake.output.items()),
-    )
+run_job(
+    snakemake.log[0],
+    "spl_al.experiment.report_steps:make_stats",
+    dict(
+        metrics_paths=snakemake.input.metrics,
+        experiments=snakemake.params.experiments,
+        sweeps=snakemake.params.sweeps,
+        out=dict(snakemake.output.items()),
+    ),
+    preload=("matplotlib.pyplot", "spl_al.report"),
+)

@@ -1,5 +1,12 @@
-from spl_al.experiment.joblog import job_log
-from spl_al.experiment.steps import make_summary
+from spl_al.experiment.warm import run_job
 
-with job_log(snakemake.log[0], preload=("spl_al.report",)):
-    make_summary(snakemake.input.metrics, snakemake.output[0], notes=snakemake.params.notes)
+run_job(
+    snakemake.log[0],
+    "spl_al.experiment.report_steps:make_summary",
+    dict(
+        metrics_paths=snakemake.input.metrics,
+        out_path=snakemake.output[0],
+        notes=snakemake.params.notes,
+    ),
+    preload=("spl_al.report",),
+)

@@ -1,13 +1,16 @@
 from pathlib import Path
 
-from spl_al.experiment.joblog import job_log
-from spl_al.experiment.steps import make_table
+from spl_al.experiment.warm import run_job
 
-with job_log(snakemake.log[0], preload=("spl_al.report",)):
-    make_table(
-        snakemake.input.metrics,
-        snakemake.wildcards.table,
-        snakemake.params.experiments,
-        snakemake.params.sweeps,
-        Path(snakemake.output.csv).with_suffix(""),
-    )
+run_job(
+    snakemake.log[0],
+    "spl_al.experiment.report_steps:make_table",
+    dict(
+        metrics_paths=snakemake.input.metrics,
+        kind=snakemake.wildcards.table,
+        experiments=snakemake.params.experiments,
+        sweeps=snakemake.params.sweeps,
+        out_stem=str(Path(snakemake.output.csv).with_suffix("")),
+    ),
+    preload=("spl_al.report",),
+)

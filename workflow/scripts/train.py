@@ -1,30 +1,22 @@
-from spl_al.experiment.joblog import job_log
-from spl_al.experiment.steps import train_round
+from spl_al.experiment.jobs import Compute, ModelFiles, RoundId
+from spl_al.experiment.warm import run_job
 
 w = snakemake.wildcards
 # Round 0 of a simulated oracle copies the shared fit and scores: no torch to load.
 shared = hasattr(snakemake.input, "initial_scores")
-with job_log(
+run_job(
     snakemake.log[0],
-    preload=() if shared else ("spl_al.data", "spl_al.scoring", "spl_al.training"),
-) as log:
-    train_round(
-        snakemake.input.data,
-        snakemake.input.labeled,
-        snakemake.params.setup,
-        w.dataset,
-        w.method,
-        int(w.seed),
-        int(w.round),
-        snakemake.output.model,
-        snakemake.output.metrics,
-        snakemake.output.scores,
-        device=snakemake.params.device,
-        threads=snakemake.threads,
-        log=log,
+    "spl_al.experiment.round_steps:train_round",
+    dict(
+        dataset_path=snakemake.input.data,
+        labeled_path=snakemake.input.labeled,
+        setup=snakemake.params.setup,
+        which=RoundId(w.dataset, w.method, int(w.seed), int(w.round)),
+        out=ModelFiles(snakemake.output.model, snakemake.output.metrics, snakemake.output.scores),
+        compute=Compute(snakemake.params.device, snakemake.threads),
         labels_path=snakemake.input.labels or None,
-        initial_fit=(
-            (
+        initial=(
+            ModelFiles(
                 snakemake.input.initial_model,
                 snakemake.input.initial_fit,
                 snakemake.input.initial_scores,
@@ -32,4 +24,7 @@ with job_log(
             if shared
             else None
         ),
-    )
+    ),
+    preload=() if shared else ("spl_al.data", "spl_al.scoring", "spl_al.training"),
+    pass_log=True,
+)

@@ -1,25 +1,18 @@
-from spl_al.experiment.joblog import job_log
-from spl_al.experiment.steps import train_initial
+from spl_al.experiment.jobs import Compute, ModelFiles
+from spl_al.experiment.warm import run_job
 
-w = snakemake.wildcards
-with job_log(
+run_job(
     snakemake.log[0],
-    preload=(
-        "spl_al.data",
-        "spl_al.scoring",
-        "spl_al.training",
+    "spl_al.experiment.round_steps:train_initial",
+    dict(
+        dataset_path=snakemake.input.data,
+        labeled_path=snakemake.input.labeled,
+        setup=snakemake.params.setup,
+        n_variants=int(snakemake.wildcards.m),
+        seed=int(snakemake.wildcards.seed),
+        out=ModelFiles(snakemake.output.model, snakemake.output.fit, snakemake.output.scores),
+        compute=Compute(snakemake.params.device, snakemake.threads),
     ),
-) as log:
-    train_initial(
-        snakemake.input.data,
-        snakemake.input.labeled,
-        snakemake.params.setup,
-        int(w.m),
-        int(w.seed),
-        snakemake.output.model,
-        snakemake.output.fit,
-        snakemake.output.scores,
-        device=snakemake.params.device,
-        threads=snakemake.threads,
-        log=log,
-    )
+    preload=("spl_al.data", "spl_al.scoring", "spl_al.training"),
+    pass_log=True,
+)

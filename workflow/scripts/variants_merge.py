@@ -1,5 +1,13 @@
-from spl_al.experiment.joblog import job_log
-from spl_al.experiment.steps import merge_variants
+from spl_al.experiment.warm import run_job
 
-with job_log(snakemake.log[0], preload=("spl_al.variants",)):
-    print(merge_variants(snakemake.input.observed, snakemake.input.shards, snakemake.output[0]))
+run_job(
+    snakemake.log[0],
+    "spl_al.experiment.data_steps:merge_variants",
+    dict(
+        observed_path=snakemake.input.observed,
+        shard_paths=snakemake.input.shards,
+        out_path=snakemake.output[0],
+    ),
+    preload=("spl_al.variants",),
+    show=True,
+)

@@ -1,13 +1,15 @@
-from spl_al.experiment.joblog import job_log
-from spl_al.experiment.steps import make_variant_shard
+from spl_al.experiment.warm import run_job
 
-with job_log(snakemake.log[0], preload=("spl_al.variants",)):
-    print(
-        make_variant_shard(
-            snakemake.input[0],
-            snakemake.params.variants,
-            int(snakemake.wildcards.shard),
-            snakemake.output[0],
-            sspi_weights=snakemake.params.sspi_weights,
-        )
-    )
+run_job(
+    snakemake.log[0],
+    "spl_al.experiment.data_steps:make_variant_shard",
+    dict(
+        observed_path=snakemake.input[0],
+        variants=snakemake.params.variants,
+        shard=int(snakemake.wildcards.shard),
+        out_path=snakemake.output[0],
+        sspi_weights=snakemake.params.sspi_weights,
+    ),
+    preload=("spl_al.variants",),
+    show=True,
+)

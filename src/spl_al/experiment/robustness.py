@@ -32,6 +32,7 @@ import numpy as np
 import pandas as pd
 
 from spl_al.atomic import read_json, write_json
+from spl_al.experiment.jobs import LOCAL, Compute
 
 GRID_FORMAT = "spl-al-robustness-grid"
 _STREAM_GRID = 11
@@ -187,22 +188,23 @@ def evaluate_grid(
     model_cfg: dict,
     names: dict,
     out_path,
-    device: str = "auto",
-    threads: int | None = None,
+    compute: Compute = LOCAL,
     batch_size: int = 256,
+    precision: str = "fp32",
 ) -> list[dict]:
     """Metric of saved models on every cell of the grid, written as a JSON list.
 
     ``model_paths``: one model per seed of ``names["seeds"]`` (same order);
     ``names``: dataset, method, seeds, round (recorded as they are). Each model's
     cells are evaluated in one pass (condition ids stand in for MSPPP levels in
-    ``evaluate``); one record per seed.
+    ``evaluate``); one record per seed, with the ``precision`` used.
     """
     import torch
 
     from spl_al.data import SCENE_FIELDS, Dataset
-    from spl_al.experiment.steps import _set_threads, model_for
-    from spl_al.training import evaluate
+    from spl_al.experiment.round_steps import model_for
+    from spl_al.training import evaluate, resolve_device
+    from spl_al.training.precision import resolve_precision
 
     model_paths = [model_paths] if isinstance(model_paths, str | Path) else list(model_paths)
     seeds = [int(s) for s in names["seeds"]]
@@ -211,7 +213,8 @@ def evaluate_grid(
             f"evaluate_grid got {len(model_paths)} models for {len(seeds)} seeds {seeds}; "
             "give one model per seed."
         )
-    _set_threads(threads)
+    compute.apply()
+    used = resolve_precision(precision, resolve_device(compute.device))
     dataset = Dataset.load(observed_path, skip=SCENE_FIELDS)
     grid = load_grid(shard_paths)
     c, n = grid["depth"].shape[:2]
@@ -231,8 +234,9 @@ def evaluate_grid(
             targets,
             levels=cell,
             classes=dataset.classes,
-            device=device,
+            device=compute.device,
             batch_size=batch_size,
+            precision=precision,
         )
         per_cell = metrics["per_level"]
         records.append(
@@ -244,6 +248,7 @@ def evaluate_grid(
                 "metric": key,
                 "source": grid["source"],
                 "n_test": int(n),
+                "precision": used,
                 "cells": [
                     {
                         "msppp": float(grid["msppp"][k]),

@@ -9,6 +9,8 @@ from dataclasses import asdict, dataclass, fields
 
 import torch
 
+from spl_al.training.precision import PRECISIONS
+
 # cuBLAS is only deterministic with a fixed workspace; this must be set before the
 # first cuBLAS handle exists, hence at import (a user's own value is kept).
 os.environ.setdefault("CUBLAS_WORKSPACE_CONFIG", ":4096:8")
@@ -62,6 +64,10 @@ class TrainConfig:
         num_threads: ``torch.set_num_threads`` for training and prediction
             (None: leave torch's choice; set it to the threads a job was given).
         eval_batch_size: images per forward pass in prediction and evaluation.
+        precision: "fp32", "bf16", "fp16" (CUDA only) or "auto" (bf16 where the
+            device computes it natively, else fp32) for training and every forward
+            pass of the model (``spl_al.training.precision``); weights, optimiser
+            state and loss stay fp32.
     """
 
     epochs: int | None = 30
@@ -87,6 +93,7 @@ class TrainConfig:
     log_every: int = 1
     num_threads: int | None = None
     eval_batch_size: int = 256
+    precision: str = "fp32"
 
     def __post_init__(self) -> None:
         def positive_int(name: str, value, allow_none: bool = False, minimum: int = 1) -> None:
@@ -131,6 +138,10 @@ class TrainConfig:
             value = getattr(self, name)
             if isinstance(value, bool) or not isinstance(value, int | float) or not value >= 0:
                 raise ValueError(f"TrainConfig.{name} must be a number >= 0, got {value!r}.")
+        if self.precision not in PRECISIONS:
+            raise ValueError(
+                f"TrainConfig.precision must be one of {list(PRECISIONS)}, got {self.precision!r}."
+            )
         for name in ("nesterov", "cosine", "hflip", "from_scratch", "channels_last"):
             if not isinstance(getattr(self, name), bool):
                 raise ValueError(

@@ -16,6 +16,7 @@ from torch import nn
 from spl_al.labels import IGNORE_INDEX
 from spl_al.models import model_input, reset_parameters, training_outputs
 from spl_al.training.config import TrainConfig, deterministic_algorithms, resolve_device
+from spl_al.training.precision import LossScaler, autocast, resolve_precision
 from spl_al.training.sgd import SGD
 
 
@@ -298,6 +299,7 @@ def train(
             f"{type(model).__name__} is tied to its scan grid: use crop_width 1."
         )
     dev = resolve_device(device)
+    precision = resolve_precision(cfg.precision, dev)
     if cfg.num_threads is not None:
         torch.set_num_threads(cfg.num_threads)
 
@@ -338,8 +340,9 @@ def train(
     progress.line(
         f"train {task} {getattr(model, 'arch', type(model).__name__)} on {n} images "
         f"{tuple(depth_m.shape[1:])}, {total} steps ({n_epochs} epochs x {per_epoch}), "
-        f"batch {batch}, device {dev}, seed {seed}"
+        f"batch {batch}, device {dev}, precision {precision}, seed {seed}"
     )
+    scaler = LossScaler(precision, dev)
     model.train()
     step = 0
     start = time.perf_counter()
@@ -390,15 +393,19 @@ def train(
                         xb, soft = _soft_targets(xb, yb, model.n_classes, cfg, mix_rng)
                     if cfg.channels_last:
                         xb = xb.contiguous(memory_format=torch.channels_last)
+                    with autocast(precision, dev):
+                        if soft is None:
+                            logits, yb = training_outputs(model, xb, yb)
+                        else:
+                            logits, _ = model(xb)
+                    # the losses cast the logits to fp32: the loss is never computed in 16 bits
                     if soft is None:
-                        logits, yb = training_outputs(model, xb, yb)
                         loss = masked_cross_entropy(logits, yb, class_weight)
                     else:
-                        logits, _ = model(xb)
                         loss = soft_cross_entropy(logits, soft)
                     opt.zero_grad(set_to_none=True)
-                    loss.backward()
-                    opt.step()
+                    scaler.backward(loss)
+                    scaler.step(opt)
                     with torch.no_grad():
                         kept = yb != IGNORE_INDEX
                         n_kept = kept.sum()

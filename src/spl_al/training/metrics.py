@@ -106,6 +106,7 @@ def evaluate(
     classes: Sequence[str] | None = None,
     device: str | torch.device | None = None,
     batch_size: int = 256,
+    precision: str = "fp32",
 ) -> dict:
     """Evaluate ``model`` on (n, H, W) images against their targets.
 
@@ -114,6 +115,7 @@ def evaluate(
     all counted pixels), "pixel_accuracy", "per_class_iou", "confusion"; invalid
     pixels and IGNORE_INDEX are not counted. With ``levels`` (one MSPPP level per
     image) the same metrics per level under "per_level". Undefined values are None.
+    ``precision``: of the forward passes (``spl_al.training.precision``).
     """
     task = model.task
     depth_m = np.asarray(depth_m)
@@ -121,7 +123,7 @@ def evaluate(
         raise ValueError(f"depth_m must have shape (n, H, W), got {depth_m.shape}.")
     t = check_targets(task, targets, len(depth_m), depth_m.shape[1:], model.n_classes)
     confs = []
-    for start, probs, _, v in iter_forward(model, depth_m, valid, device, batch_size):
+    for start, probs, _, v in iter_forward(model, depth_m, valid, device, batch_size, precision):
         pred = probs.argmax(1).cpu().numpy()
         tb = t[start : start + len(pred)]
         if task == "segmentation":

@@ -11,6 +11,7 @@ from torch import nn
 
 from spl_al.models import model_input
 from spl_al.training.config import resolve_device
+from spl_al.training.precision import autocast, resolve_precision
 
 FEATURE_MODES = ("image", "pixel", "none")
 
@@ -21,11 +22,14 @@ def iter_forward(
     valid,
     device: str | torch.device | None = None,
     batch_size: int = 256,
+    precision: str = "fp32",
 ) -> Iterator[tuple[int, torch.Tensor, torch.Tensor, torch.Tensor]]:
     """Run ``model`` in eval mode over images in batches, without gradients.
 
     Args:
         depth_m, valid: (n, H, W) arrays (numpy, memory-mapped or torch).
+        precision: "fp32", "bf16", "fp16" or "auto" (``spl_al.training.precision``);
+            the outputs are float32 whatever it is.
 
     Yields:
         (start, probs, features, valid) per batch, on the device: probs (b, C) or
@@ -35,6 +39,7 @@ def iter_forward(
     if batch_size < 1:
         raise ValueError(f"batch_size must be >= 1, got {batch_size}.")
     dev = resolve_device(device)
+    precision = resolve_precision(precision, dev)
     model.to(dev).eval()
     n = len(depth_m)
     with torch.inference_mode():
@@ -42,7 +47,8 @@ def iter_forward(
             stop = min(start + batch_size, n)
             x = model_input(model, np.asarray(depth_m[start:stop]), np.asarray(valid[start:stop]))
             x = x.to(dev)
-            logits, features = model(x)
+            with autocast(precision, dev):
+                logits, features = model(x)
             yield start, torch.softmax(logits.float(), dim=1), features.float(), x[:, 1] > 0
 
 
@@ -77,18 +83,20 @@ def predict(
     device: str | torch.device | None = None,
     batch_size: int = 256,
     features: str = "image",
+    precision: str = "fp32",
 ) -> Predictions:
     """Class probabilities and penultimate features of ``model`` for (n, H, W) images.
 
     Args:
         features: "image" (per image; segmentation averages over valid pixels),
             "pixel" (segmentation: the full (n, d, H, W) maps), or "none".
+        precision: of the forward passes (``iter_forward``).
     """
     if features not in FEATURE_MODES:
         raise ValueError(f"features must be one of {FEATURE_MODES}, got {features!r}.")
     probs, feats = [], []
     per_pixel = model.task == "segmentation"
-    for _, p, f, v in iter_forward(model, depth_m, valid, device, batch_size):
+    for _, p, f, v in iter_forward(model, depth_m, valid, device, batch_size, precision):
         probs.append(p.cpu().numpy())
         if features == "image" and per_pixel:
             f = pool_pixels(f, v)

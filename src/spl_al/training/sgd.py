@@ -40,7 +40,8 @@ class SGD:
         if nesterov and momentum <= 0:
             raise ValueError("SGD: nesterov momentum needs momentum > 0.")
         self.params = [p for p in params if p.requires_grad]
-        self.param_groups = [{"lr": float(lr)}]
+        # "params" lets torch.amp.GradScaler unscale the gradients (fp16 training).
+        self.param_groups = [{"lr": float(lr), "params": self.params}]
         self.momentum = float(momentum)
         self.nesterov = bool(nesterov)
         self.weight_decay = float(weight_decay)

@@ -1,0 +1,94 @@
+"""Report steps of the workflow: the paper's tables, curves, summaries and paired
+statistics from the per-round metrics records (pandas and matplotlib, no torch)."""
+
+from __future__ import annotations
+
+from spl_al.atomic import atomic_write, write_json
+
+
+def make_table(metrics_paths, kind: str, experiments: dict, sweeps: dict, out_stem) -> None:
+    """One of the paper's tables (budget, levels, ablation, sensitivity) as CSV + MD + TeX."""
+    from spl_al import report
+
+    df = report.load_records(metrics_paths)
+    metric = df["metric"].iloc[0]
+    at_round = experiments.get(kind, {}).get("round")
+    caption = {
+        "budget": f"{metric} (%) vs labeling ratio, mean ± std over seeds",
+        "levels": f"{metric} (%) per MSPPP level at round {at_round}",
+        "ablation": f"ablation: {metric} (%) at round {at_round}",
+        "sensitivity": f"parameter sensitivity of DUIS: {metric} (%)",
+    }[kind]
+    if kind == "budget":
+        frame = report.budget_table(df, methods=experiments["budget"]["methods"])
+    elif kind == "levels":
+        frame = report.level_table(
+            df, round=experiments["levels"]["round"], methods=experiments["budget"]["methods"]
+        )
+    elif kind == "ablation":
+        frame = report.ablation_table(
+            df, experiments["ablation"]["round"], rows=experiments["ablation"]["methods"]
+        )
+    elif kind == "sensitivity":
+        renamed = {("m" if p == "n_variants" else p): v for p, v in sweeps.items()}
+        rounds = {
+            ("m" if p == "n_variants" else p): r
+            for p, r in experiments["sensitivity"]["rounds"].items()
+        }
+        frame = report.sensitivity_table(df, renamed, rounds)
+    else:
+        raise ValueError(
+            f"unknown table {kind!r}; expected budget, levels, ablation or sensitivity."
+        )
+    report.write_table(frame, out_stem, caption=caption)
+
+
+def make_curves(metrics_paths, methods, png, pdf, title: str, per_level: bool = False) -> None:
+    """Budget curves with ±std bands: overall, or one panel per MSPPP level."""
+    from spl_al import report
+
+    df = report.load_records(metrics_paths)
+    df = df[df["method"].isin(methods)]
+    plot = report.plot_level_curves if per_level else report.plot_curves
+    plot(df, png, pdf, methods=methods, title=title)
+
+
+def make_summary(metrics_paths, out_path, notes=()) -> dict:
+    """Per method: area under the budget curve and final value (JSON), with ``notes``
+    (one sentence each, e.g. why per-level results are missing)."""
+    from spl_al import report
+
+    result = report.summary(report.load_records(metrics_paths))
+    result["notes"] = [str(n) for n in notes]
+    write_json(result, out_path)
+    return result
+
+
+def make_stats(metrics_paths, experiments: dict, sweeps: dict, out: dict) -> None:
+    """Paired statistics of a dataset: ``comparisons`` and ``claims`` (CSV + Markdown)
+    and the AUBC chart. ``out``: paths by name (comparisons_csv, comparisons_md,
+    claims_csv, claims_md, aubc_png, aubc_pdf). Claims are judged on the comparisons
+    as written, so the two files cannot disagree."""
+    import pandas as pd
+
+    from spl_al import report
+    from spl_al.atomic import atomic_write_text
+    from spl_al.report.claims import claims, render_claims_markdown
+    from spl_al.report.comparisons import comparisons, render_comparisons_markdown
+    from spl_al.report.stat_figures import aubc_figure
+
+    df = report.load_records(metrics_paths)
+    renamed = {("m" if p == "n_variants" else p): v for p, v in sweeps.items()}
+    frame = comparisons(df, experiments, renamed)
+    atomic_write(out["comparisons_csv"], lambda tmp: frame.to_csv(tmp, index=False))
+    stored = pd.read_csv(out["comparisons_csv"])
+    atomic_write_text(out["comparisons_md"], render_comparisons_markdown(stored))
+    verdicts = claims(stored)
+    atomic_write(out["claims_csv"], lambda tmp: verdicts.to_csv(tmp, index=False))
+    name = str(df["dataset"].iloc[0])
+    atomic_write_text(out["claims_md"], render_claims_markdown(verdicts, dataset=name))
+    methods = experiments.get("budget", {}).get("methods")
+    budget = df if methods is None else df[df["method"].isin(methods)]
+    if "budget" in experiments:
+        budget = budget[budget["round"] < int(experiments["budget"]["rounds"])]
+    report.save_figure(aubc_figure(budget, methods), out["aubc_png"], out["aubc_pdf"])

@@ -1,0 +1,499 @@
+"""Active-learning round steps: the round-0 set, training with evaluation and scoring,
+and the query.
+
+Index convention: labeled sets and queries are indices into the dataset's *training
+split* (``dataset.train_idx[i]`` is the sample), kept as JSON. Torch, scikit-learn
+and the dataset are imported inside the steps that need them.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass
+
+import numpy as np
+
+from spl_al.atomic import atomic_write, read_json, write_json
+from spl_al.experiment.jobs import LOCAL, Compute, ModelFiles, RoundId
+from spl_al.experiment.plan import MethodSpec
+
+# Streams of np.random.SeedSequence([seed, round, stream]): one per kind of draw.
+_TRAIN_STREAM = 1
+_QUERY_STREAM = 2
+
+
+def step_seed(seed: int, round_: int, stream: int) -> int:
+    """A 31-bit seed for one (run seed, round, kind of draw): independent streams."""
+    return int(np.random.SeedSequence([int(seed), int(round_), stream]).generate_state(1)[0] >> 1)
+
+
+# ---------------------------------------------------------------- labeled sets
+
+
+def read_labeled(path) -> np.ndarray:
+    """Training-split indices of a labeled set written by ``initial_set`` or ``query``."""
+    record = read_json(path)
+    if "pool_indices" not in record:
+        raise ValueError(f"{path}: not a labeled set (no 'pool_indices').")
+    return np.asarray(record["pool_indices"], dtype=np.int64)
+
+
+def initial_set(dataset_path, al: dict, seed: int, out_path) -> dict:
+    """The round-0 labeled set of a seed, shared by every method (paired comparison).
+
+    Reads only the dataset's split sizes (and, when stratified, the training labels:
+    drawing the initial set is the oracle's job, not a strategy's).
+    """
+    from spl_al.data import SCENE_FIELDS, Dataset
+    from spl_al.pool import initial_labeled_set
+
+    dataset = Dataset.load(dataset_path, skip=SCENE_FIELDS)
+    stratified = bool(al.get("stratified_initial", False)) and dataset.task == "classification"
+    labels = dataset.labels[dataset.train_idx] if stratified else None
+    idx = initial_labeled_set(
+        len(dataset.train_idx), int(al["initial"]), int(seed), labels=labels, stratified=stratified
+    )
+    return write_initial_set(idx, seed, out_path)
+
+
+def write_initial_set(idx, seed: int, out_path) -> dict:
+    """Write a seed's round-0 labeled set (training-split indices) as its JSON record."""
+    idx = np.asarray(idx)
+    record = {
+        "seed": int(seed),
+        "round": 0,
+        "n_labeled": int(idx.size),
+        "pool_indices": np.sort(idx).tolist(),
+    }
+    write_json(record, out_path)
+    return record
+
+
+# ---------------------------------------------------------------- models
+
+
+def model_for(dataset, model_cfg: dict):
+    """The configured model (``model_cfg``: arch and its parameters) for ``dataset``;
+    an architecture that needs the scan grid (PointNet++) gets ``dataset.grid()``."""
+    from spl_al.models import build_model, needs_grid
+
+    cfg = dict(model_cfg)
+    arch = cfg.pop("arch", None)
+    if needs_grid(dataset.task, arch):
+        cfg["grid"] = dataset.grid()
+    return build_model(dataset.task, len(dataset.classes), arch=arch, **cfg)
+
+
+def load_model(dataset, model_cfg: dict, weights):
+    """``model_for`` with the saved ``weights`` loaded, in eval mode."""
+    import torch
+
+    model = model_for(dataset, model_cfg)
+    model.load_state_dict(torch.load(weights, map_location="cpu", weights_only=True))
+    return model.eval()
+
+
+def save_model(model, path) -> None:
+    import torch
+
+    state = model.state_dict()
+    atomic_write(path, lambda tmp: torch.save(state, tmp))
+
+
+@dataclass
+class Fit:
+    """A trained model and what its round records of it."""
+
+    model: object
+    metrics: dict
+    train_images: int
+    train_seconds: float
+    precision: str
+
+
+def fit_and_evaluate(
+    dataset, pool_idx, given, train_setup: dict, n_variants, seed, round_, compute: Compute, log
+) -> Fit:
+    """Train a fresh model on the labeled groups ``pool_idx`` (their labels or masks
+    ``given``; ``n_variants`` variants each) and evaluate it on the test split.
+
+    ``train_setup``: ``model`` (arch and parameters) and ``fit`` (a TrainConfig).
+    """
+    from spl_al.training import TrainConfig, evaluate, resolve_device, train
+    from spl_al.training.precision import resolve_precision
+
+    started = time.perf_counter()
+    cfg = TrainConfig.from_dict({**train_setup.get("fit", {}), "num_threads": compute.threads})
+    depth, valid = dataset.groups(dataset.train_idx[pool_idx], n_variants=n_variants)
+    targets = np.repeat(given, depth.shape[1], axis=0)
+    images = depth.reshape(-1, *depth.shape[2:])
+    model = train(
+        model_for(dataset, train_setup["model"]),
+        images,
+        valid.reshape(images.shape),
+        targets,
+        cfg,
+        seed=step_seed(seed, round_, _TRAIN_STREAM),
+        device=compute.device,
+        log=log,
+        groups=len(pool_idx),
+    )
+    train_seconds = time.perf_counter() - started
+    test = dataset.test_idx
+    metrics = evaluate(
+        model,
+        dataset.depth_m[test],
+        dataset.valid[test],
+        dataset.labels[test],
+        levels=dataset.level[test],
+        classes=dataset.classes,
+        device=compute.device,
+        batch_size=cfg.eval_batch_size,
+        precision=cfg.precision,
+    )
+    used = resolve_precision(cfg.precision, resolve_device(compute.device))
+    return Fit(model, metrics, int(images.shape[0]), train_seconds, used)
+
+
+def dataset_facts(dataset) -> dict:
+    """What a metrics record needs of a dataset, for steps that do not load it."""
+    return {
+        "task": dataset.task,
+        "n_samples": len(dataset),
+        "n_train": len(dataset.train_idx),
+        "n_variants": int(dataset.n_variants),
+        "synthetic_standin": bool(dataset.meta.get("synthetic_standin", False)),
+    }
+
+
+# ---------------------------------------------------------------- round 0, shared
+
+
+def train_initial(
+    dataset_path,
+    labeled_path,
+    setup: dict,
+    n_variants: int,
+    seed: int,
+    out: ModelFiles,
+    compute: Compute = LOCAL,
+    log=None,
+) -> dict:
+    """Round 0's training and scoring, done once per seed and number of variants per group.
+
+    Every method starts from the seed's initial labeled set and trains with the same
+    seed, so all methods that use ``n_variants`` variants per group (0: observed
+    images only) would train the same model; ``train_round`` reuses this one instead
+    (``initial_fit``). Writes the weights and ``out.record`` (test metrics, training
+    images and seconds, precision, what a metrics record needs of the dataset). With
+    ``out.scores`` it also scores the unlabeled pool for every strategy at once:
+    every need on the observed images (batched as ``score_pool`` batches them for one
+    strategy, so each method's part is what it would compute itself) and, when
+    ``n_variants`` > 0, the group needs on the M = ``n_variants`` variants.
+    """
+    from spl_al.data import SCENE_FIELDS, Dataset
+
+    compute.apply()
+    dataset = Dataset.load(dataset_path, skip=SCENE_FIELDS)
+    pool_idx = read_labeled(labeled_path)
+    given = dataset.labels[dataset.train_idx[pool_idx]]
+    m = int(n_variants)
+    fit = fit_and_evaluate(dataset, pool_idx, given, setup["train"], m, seed, 0, compute, log)
+    save_model(fit.model, out.model)
+    record = {
+        "metrics": fit.metrics,
+        "train_images": fit.train_images,
+        "train_seconds": round(fit.train_seconds, 3),
+        "precision": fit.precision,
+        "dataset": dataset_facts(dataset),
+        "score_variants": m,
+    }
+    if out.scores is not None:
+        started = time.perf_counter()
+        precision = setup["train"].get("fit", {}).get("precision", "fp32")
+        _score_every_need(fit.model, dataset, pool_idx, m, out.scores, compute, precision)
+        record["score_seconds"] = round(time.perf_counter() - started, 3)
+    write_json(record, out.record)
+    return record
+
+
+def _score_every_need(model, dataset, pool_idx, m, out_path, compute, precision) -> None:
+    """Scores of the unlabeled pool for every strategy: the observed-image needs, and
+    with ``m`` > 0 the group needs on M = ``m`` variants."""
+    from spl_al.scoring import compute_inputs
+    from spl_al.strategies import StrategyInputs
+    from spl_al.strategies.inputs import ARRAY_FIELDS, GROUP_NEEDS, NEEDS
+
+    unlabeled = np.setdiff1d(np.arange(len(dataset.train_idx)), pool_idx)
+    passes = [(0, frozenset(NEEDS) - GROUP_NEEDS)] + ([(m, GROUP_NEEDS)] if m else [])
+    parts = {}
+    for m_scored, needs in passes:
+        depth, valid = dataset.groups(dataset.train_idx, n_variants=m_scored)
+        inputs = compute_inputs(
+            model, needs, depth, valid, unlabeled, pool_idx, compute.device, precision=precision
+        )
+        parts.update(
+            {f: getattr(inputs, f) for f in ARRAY_FIELDS if getattr(inputs, f) is not None}
+        )
+    StrategyInputs(unlabeled_idx=unlabeled, labeled_idx=pool_idx, **parts).save(out_path)
+
+
+def _train_variants(method: MethodSpec, n_variants: int) -> int:
+    """Variants per labeled group a method trains on (0: observed images only)."""
+    return _method_variants(method, n_variants) if method.use_variants else 0
+
+
+def _method_variants(method: MethodSpec, n_variants: int) -> int:
+    """A method's M: its own ``n_variants`` (the M sweep), else the dataset's."""
+    return n_variants if method.n_variants is None else int(method.n_variants)
+
+
+def _score_variants(method: MethodSpec, needs, n_variants: int) -> int:
+    """Variants per group a strategy's scoring runs on: its method's M when it needs
+    group predictions (DUIS), else 0 (observed images only)."""
+    from spl_al.strategies.inputs import GROUP_NEEDS
+
+    return _method_variants(method, n_variants) if needs & GROUP_NEEDS else 0
+
+
+def _check_fit(fit, fit_path, n_labeled, m, method_name) -> None:
+    if fit["train_images"] != n_labeled * (m + 1):
+        raise ValueError(
+            f"{fit_path} trained on {fit['train_images']} images, but round 0 of "
+            f"{method_name} trains on {n_labeled * (m + 1)}; remove it to retrain."
+        )
+
+
+def _shared_round0(initial: ModelFiles, method: MethodSpec, pool_idx, out: ModelFiles):
+    """Round 0 from ``train_initial``'s files without torch: the fit record, the
+    weights copied, and the method's part of the shared scores; None when the shared
+    scores lack the variants this method scores on (it then scores itself)."""
+    import shutil
+
+    from spl_al.strategies import StrategyInputs, get
+    from spl_al.strategies.inputs import NEEDS
+
+    fit = read_json(initial.record)
+    m = _train_variants(method, fit["dataset"]["n_variants"])
+    _check_fit(fit, initial.record, pool_idx.size, m, method.name)
+    needs = get(method.strategy, **method.params).needs
+    if _score_variants(method, needs, fit["dataset"]["n_variants"]) not in (
+        0,
+        fit["score_variants"],
+    ):
+        return None
+    shared = StrategyInputs.load(initial.scores)
+    if not np.array_equal(shared.labeled_idx, pool_idx):
+        raise ValueError(
+            f"{initial.scores} scored another labeled set than round 0 of {method.name}."
+        )
+    wanted = {f for need in needs for f in NEEDS[need]}
+    arrays = {f: getattr(shared, f) for f in wanted if getattr(shared, f) is not None}
+    StrategyInputs(shared.unlabeled_idx, shared.labeled_idx, **arrays).save(out.scores)
+    atomic_write(out.model, lambda tmp: shutil.copyfile(initial.model, tmp))
+    return fit
+
+
+# ---------------------------------------------------------------- round r
+
+
+def _metrics_record(facts, setup, which: RoundId, n_labeled, metrics, extra) -> dict:
+    """The per-round record ``spl_al.report`` aggregates (``facts``: ``dataset_facts``;
+    ``extra``: timing and precision)."""
+    from spl_al.data.dataset import LEVELS
+
+    key = "accuracy" if facts["task"] == "classification" else "miou"
+    ratio_of = setup.get("ratio_of", "train")
+    n_total = facts["n_samples"] if ratio_of == "all" else facts["n_train"]
+    return {
+        "dataset": which.dataset,
+        "method": which.method,
+        "seed": int(which.seed),
+        "round": int(which.round),
+        "n_labeled": int(n_labeled),
+        "n_pool": facts["n_train"],
+        "n_total": int(n_total),
+        "ratio": n_labeled / n_total,
+        "metric": key,
+        "value": float(metrics[key]),
+        # Images without a known MSPPP level ("unknown": folder data without
+        # conditions) count in "value" but belong to no level.
+        "per_level": {
+            level: float(v[key])
+            for level, v in metrics.get("per_level", {}).items()
+            if v[key] is not None and level in LEVELS  # not "unknown" (external files)
+        },
+        "synthetic_standin": facts["synthetic_standin"],
+        **extra,
+        "details": metrics,
+    }
+
+
+def train_round(
+    dataset_path,
+    labeled_path,
+    setup: dict,
+    which: RoundId,
+    out: ModelFiles,
+    compute: Compute = LOCAL,
+    log=None,
+    labels_path=None,
+    initial: ModelFiles | None = None,
+) -> dict:
+    """Train on round r's labeled groups, evaluate on the test split, then score the
+    unlabeled pool for the next query (``score_pool``) with the model still in memory.
+
+    ``setup`` holds ``train`` (``model``: arch and its parameters, ``fit``: a
+    TrainConfig) and ``method`` (MethodSpec fields). A method with ``use_variants``
+    trains on the observed image and the method's M variants of each labeled group,
+    all with the group's label or mask. Writes the weights, the metrics record that
+    ``spl_al.report`` aggregates (``out.record``) and the scores.
+
+    The training labels are the dataset's (the simulated oracle), or with
+    ``labels_path`` the ones a person gave (``spl_al.labeling.save_labels``).
+    ``initial``: ``train_initial``'s files: round 0's model, trained once for every
+    method that trains like this one, is used instead of training again (the same
+    seed and images give the same weights). With its scores this step needs neither
+    torch nor the dataset: it copies the weights and the method's part of the scores.
+    """
+    started = time.perf_counter()
+    method = MethodSpec(name=which.method, **{"params": {}, **setup["method"]})
+    pool_idx = read_labeled(labeled_path)
+    if initial is not None and initial.scores is not None:
+        fit = _shared_round0(initial, method, pool_idx, out)
+        if fit is not None:
+            extra = {
+                "train_images": fit["train_images"],
+                "train_seconds": fit["train_seconds"],
+                "score_seconds": 0.0,
+                "seconds": round(time.perf_counter() - started, 3),
+                "precision": fit["precision"],
+            }
+            record = _metrics_record(
+                fit["dataset"], setup, which, pool_idx.size, fit["metrics"], extra
+            )
+            write_json(record, out.record)
+            return record
+
+    from spl_al.data import SCENE_FIELDS, Dataset
+
+    compute.apply()
+    dataset = Dataset.load(dataset_path, skip=SCENE_FIELDS)
+    fit = _round_model(dataset, pool_idx, setup, method, which, compute, log, labels_path, initial)
+    save_model(fit.model, out.model)
+    precision = setup["train"].get("fit", {}).get("precision", "fp32")
+    scored = score_pool(fit.model, dataset, pool_idx, method, out.scores, compute, precision)
+    extra = {
+        "train_images": fit.train_images,
+        "train_seconds": round(fit.train_seconds, 3),
+        "score_seconds": scored["seconds"],
+        "seconds": round(time.perf_counter() - started, 3),
+        "precision": fit.precision,
+    }
+    facts = dataset_facts(dataset)
+    record = _metrics_record(facts, setup, which, pool_idx.size, fit.metrics, extra)
+    write_json(record, out.record)
+    return record
+
+
+def _round_model(dataset, pool_idx, setup, method, which, compute, log, labels_path, initial):
+    """The round's model: round 0's shared fit loaded (``initial``), else one trained on
+    the labels of ``pool_idx`` (the dataset's, or a person's from ``labels_path``)."""
+    m = _train_variants(method, dataset.n_variants)
+    if initial is not None:
+        record = read_json(initial.record)
+        _check_fit(record, initial.record, pool_idx.size, m, which.method)
+        model = load_model(dataset, setup["train"]["model"], initial.model)
+        return Fit(
+            model,
+            record["metrics"],
+            record["train_images"],
+            record["train_seconds"],
+            record["precision"],
+        )
+    if labels_path is None:
+        given = dataset.labels[dataset.train_idx[pool_idx]]
+    else:
+        from spl_al.labeling import labels_for
+
+        given = labels_for(labels_path, pool_idx).astype(dataset.labels.dtype)
+    return fit_and_evaluate(
+        dataset, pool_idx, given, setup["train"], m, which.seed, which.round, compute, log
+    )
+
+
+def score_pool(
+    model,
+    dataset,
+    labeled: np.ndarray,
+    method: MethodSpec,
+    out_path,
+    compute: Compute = LOCAL,
+    precision: str = "fp32",
+) -> dict:
+    """Forward passes over the unlabeled training groups: exactly what the method's
+    strategy needs (``strategy.needs``), saved for the query step. No labels are read:
+    the strategy inputs are built from images and the model alone."""
+    from spl_al.scoring import compute_inputs
+    from spl_al.strategies import get
+
+    started = time.perf_counter()
+    # What to compute depends on the strategy alone, not on its parameters.
+    strategy = get(method.strategy, **method.params)
+    unlabeled = np.setdiff1d(np.arange(len(dataset.train_idx)), labeled)
+    m = _score_variants(method, strategy.needs, dataset.n_variants)
+    depth, valid = dataset.groups(dataset.train_idx, n_variants=m)
+    inputs = compute_inputs(
+        model, strategy.needs, depth, valid, unlabeled, labeled, compute.device, precision=precision
+    )
+    inputs.save(out_path)
+    return {"unlabeled": int(unlabeled.size), "seconds": round(time.perf_counter() - started, 3)}
+
+
+def score_round(
+    dataset_path,
+    labeled_path,
+    model_path,
+    setup: dict,
+    method_name: str,
+    out_path,
+    compute: Compute = LOCAL,
+) -> dict:
+    """``score_pool`` for a saved model: rescore a round without retraining."""
+    from spl_al.data import SCENE_FIELDS, Dataset
+
+    compute.apply()
+    dataset = Dataset.load(dataset_path, skip=SCENE_FIELDS)
+    method = MethodSpec(name=method_name, **{"params": {}, **setup["method"]})
+    model = load_model(dataset, setup["train"]["model"], model_path)
+    precision = setup["train"].get("fit", {}).get("precision", "fp32")
+    return score_pool(
+        model, dataset, read_labeled(labeled_path), method, out_path, compute, precision
+    )
+
+
+def query_round(
+    scores_path, labeled_path, method: dict, batch: int, seed: int, round_: int, out_path
+) -> dict:
+    """Select ``batch`` unlabeled groups with the method's strategy; the oracle labels
+    them; write the next round's labeled set (``round_`` is that next round)."""
+    from spl_al.pool import Pool
+    from spl_al.strategies import StrategyInputs, get
+
+    spec = MethodSpec(name="", **method)
+    inputs = StrategyInputs.load(scores_path)
+    labeled = read_labeled(labeled_path)
+    rng = np.random.default_rng(step_seed(seed, round_ - 1, _QUERY_STREAM))
+    picked = get(spec.strategy, **spec.params).select(inputs, int(batch), rng)
+    n_train = int(labeled.size + inputs.unlabeled_idx.size)
+    pool = Pool(n_train, labeled)
+    pool.add(picked)
+    record = {
+        "seed": int(seed),
+        "round": int(round_),
+        "n_labeled": int(pool.n_labeled),
+        "queried": np.asarray(picked, dtype=np.int64).tolist(),
+        "pool_indices": pool.labeled_idx.tolist(),
+    }
+    write_json(record, out_path)
+    return record

@@ -1,0 +1,84 @@
+"""Mixed precision: what ``precision`` resolves to, that training and prediction honour
+it deterministically, and that weights and outputs stay fp32."""
+
+import io
+
+import numpy as np
+import pytest
+import torch
+from al_synthetic import shapes_groups
+
+from spl_al.models import build_model
+from spl_al.training import TrainConfig, evaluate, predict, train
+from spl_al.training.precision import LossScaler, native_bf16, resolve_precision
+from spl_al.training.sgd import SGD
+
+CPU = torch.device("cpu")
+FAST = TrainConfig(epochs=6, batch_size=16, lr=0.05, log_every=0)
+
+
+def test_auto_is_bf16_exactly_where_the_cpu_computes_it():
+    assert resolve_precision("auto", CPU) == ("bf16" if native_bf16(CPU) else "fp32")
+    assert resolve_precision("fp32", CPU) == "fp32"
+    assert resolve_precision("bf16", CPU) == "bf16"  # emulated where not native, but allowed
+
+
+def test_fp16_off_cuda_and_unknown_names_are_refused():
+    with pytest.raises(ValueError, match="'fp16' needs a CUDA device"):
+        resolve_precision("fp16", CPU)
+    with pytest.raises(ValueError, match="precision must be one of"):
+        resolve_precision("half", CPU)
+    with pytest.raises(ValueError, match=r"TrainConfig\.precision must be one of"):
+        TrainConfig(precision="fp8")
+
+
+def _fit(precision: str, seed: int = 0):
+    depth, valid, y = shapes_groups(48, n_groups=1, seed=2)
+    model = build_model("classification", 3, width=4)
+    cfg = TrainConfig(**{**FAST.to_dict(), "precision": precision})
+    train(model, depth[:, 0], valid[:, 0], y, cfg, seed=seed, device="cpu", log=io.StringIO())
+    return model, depth[:, 0], valid[:, 0], y
+
+
+def test_bf16_training_is_deterministic_keeps_fp32_weights_and_learns():
+    a, d, v, y = _fit("bf16")
+    b, *_ = _fit("bf16")
+    c, *_ = _fit("fp32")
+    assert all(p.dtype == torch.float32 for p in a.state_dict().values() if p.is_floating_point())
+    assert all(torch.equal(a.state_dict()[k], b.state_dict()[k]) for k in a.state_dict())
+    # autocast really ran: the same seed at fp32 ends elsewhere
+    assert any(not torch.equal(a.state_dict()[k], c.state_dict()[k]) for k in a.state_dict())
+    metrics = evaluate(a, d, v, y, device="cpu", precision="bf16")
+    assert metrics["accuracy"] > 0.8
+
+
+def test_bf16_prediction_is_float32_and_agrees_with_fp32():
+    model, d, v, _ = _fit("fp32")
+    full = predict(model, d, v, device="cpu", precision="fp32")
+    half = predict(model, d, v, device="cpu", precision="bf16")
+    assert half.probs.dtype == np.float32 and half.features.dtype == np.float32
+    np.testing.assert_allclose(half.probs.sum(axis=1), 1.0, atol=1e-5)
+    assert np.mean(half.probs.argmax(1) == full.probs.argmax(1)) > 0.9
+    assert not np.array_equal(half.probs, full.probs)
+
+
+def test_fp16_loss_scaling_unscales_the_step_and_skips_an_overflow():
+    torch.manual_seed(0)
+    layer = torch.nn.Linear(4, 2)
+    start = [p.detach().clone() for p in layer.parameters()]
+    x = torch.randn(8, 4)
+    reference = torch.autograd.grad(layer(x).square().mean(), list(layer.parameters()))
+    opt = SGD(layer.parameters(), lr=0.1)
+    scaler = LossScaler("fp16", CPU)  # GradScaler("cpu"): the code path of CUDA's fp16
+    scaler.backward(layer(x).square().mean())
+    assert layer.weight.grad.abs().sum() > 1000 * reference[0].abs().sum()  # scaled
+    scaler.step(opt)
+    for p, p0, g in zip(layer.parameters(), start, reference, strict=True):
+        torch.testing.assert_close(p.detach(), p0 - 0.1 * g)  # the unscaled update
+    before = [p.detach().clone() for p in layer.parameters()]
+    scale = scaler._scaler.get_scale()
+    opt.zero_grad()
+    scaler.backward(layer(x).sum() * float("inf"))
+    scaler.step(opt)  # an overflow: no step, and a lower scale
+    assert all(torch.equal(p, q) for p, q in zip(layer.parameters(), before, strict=True))
+    assert scaler._scaler.get_scale() < scale

@@ -1,0 +1,145 @@
+"""Warm job processes: a job run through the server is the job run on its own (files,
+log, exit code, streams, environment, numbers), and dies with its client."""
+
+import os
+import signal
+import subprocess
+import sys
+import textwrap
+import time
+from pathlib import Path
+
+import pytest
+
+from spl_al.experiment.warm import SOCKET_ENV, Server, plain, run_job
+
+JOBS = textwrap.dedent(
+    """
+    import os, sys, time
+
+    def write(path, text, log=None):
+        print("job pid", os.getpid(), "X =", os.environ.get("X"))
+        print("to the terminal", file=sys.__stderr__)
+        with open(path, "w") as f:
+            f.write(f"{text} {os.getcwd()}")
+        return {"wrote": path}
+
+    def fail():
+        raise ValueError("the input is wrong")
+
+    def slow(path):
+        time.sleep(3)
+        open(path, "w").write("late")
+
+    def weights(path):
+        import io, torch
+        from spl_al.models import build_model
+        from spl_al.training import TrainConfig, train
+        torch.manual_seed(0)
+        x = torch.rand(16, 32, 32).numpy() * 5  # see spl_al.training.precision: no 1x1 maps
+        model = build_model("classification", 2, width=4)
+        cfg = TrainConfig(epochs=2, batch_size=8, log_every=0, precision="auto")
+        train(model, x, x > 0, [0, 1] * 8, cfg, seed=1, device="cpu", log=io.StringIO())
+        torch.save(model.state_dict(), path)
+    """
+)
+
+CLIENT = textwrap.dedent(
+    """
+    import sys
+    from spl_al.experiment.warm import run_job
+    run_job(sys.argv[1], "jobs:" + sys.argv[2], eval(sys.argv[3]), show=True)
+    """
+)
+
+
+@pytest.fixture
+def folder(tmp_path, monkeypatch):
+    (tmp_path / "jobs.py").write_text(JOBS)
+    (tmp_path / "client.py").write_text(CLIENT)
+    monkeypatch.setenv("PYTHONPATH", f"{tmp_path}{os.pathsep}{os.environ.get('PYTHONPATH', '')}")
+    monkeypatch.chdir(tmp_path)
+    return tmp_path
+
+
+@pytest.fixture
+def server(folder):
+    srv = Server.start(folder / "server.log")
+    yield srv
+    srv.stop()
+
+
+def client(job, kwargs, env=None, wait=True):
+    args = [sys.executable, "client.py", f"{job}.log", job, repr(kwargs)]
+    env = {**os.environ, **(env or {})}
+    if not wait:
+        return subprocess.Popen(args, env=env)
+    return subprocess.run(args, env=env, capture_output=True, text=True, timeout=60)
+
+
+def test_a_job_through_the_server_writes_its_files_log_and_streams(server, folder):
+    run = client("write", {"path": "out.txt", "text": "hi"}, env={"X": "42"})
+    assert run.returncode == 0, run.stderr
+    assert (folder / "out.txt").read_text() == f"hi {folder}"  # the client's folder
+    log = (folder / "write.log").read_text()
+    assert "X = 42" in log  # the client's environment
+    pid = int(log.split("job pid ")[1].split()[0])
+    assert pid != server.process.pid  # a forked child, not the server itself
+    assert "{'wrote': 'out.txt'}" in log and log.rstrip().splitlines()[-1].startswith(
+        "compute_seconds:"
+    )
+    assert "to the terminal" in run.stderr  # fd 2 is the client's
+
+
+def test_a_failing_job_exits_1_with_its_one_sentence(server, folder):
+    run = client("fail", {})
+    assert run.returncode == 1
+    assert "error: the input is wrong (log: fail.log)" in run.stderr
+    assert "Traceback" not in run.stderr
+
+
+def test_without_a_server_the_job_runs_in_its_own_process(folder, monkeypatch):
+    monkeypatch.setenv(SOCKET_ENV, str(folder / "nobody-listens"))
+    run = client("write", {"path": "out.txt", "text": "cold"})
+    assert run.returncode == 0 and (folder / "out.txt").read_text().startswith("cold")
+
+
+def test_killing_the_client_kills_its_job(server, folder):
+    proc = client("slow", {"path": "late.txt"}, wait=False)
+    time.sleep(1.0)
+    proc.send_signal(signal.SIGKILL)
+    proc.wait()
+    time.sleep(3.5)
+    assert not (folder / "late.txt").exists()
+
+
+def test_a_warm_child_trains_the_weights_of_a_fresh_process(server, folder, monkeypatch):
+    import torch
+
+    assert client("weights", {"path": "warm.pt"}).returncode == 0
+    monkeypatch.delenv(SOCKET_ENV)
+    assert client("weights", {"path": "cold.pt"}).returncode == 0
+    warm, cold = (torch.load(folder / f, weights_only=True) for f in ("warm.pt", "cold.pt"))
+    assert all(torch.equal(warm[k], cold[k]) for k in cold)
+
+
+def test_snakemake_names_pickle_as_plain_values():
+    class Name(str):
+        pass
+
+    class Names(list):
+        pass
+
+    value = plain({"a": Names([Name("x")]), "b": (1, Name("y"))})
+    assert value == {"a": ["x"], "b": [1, "y"]}
+    assert type(value["a"]) is list and type(value["a"][0]) is str
+
+
+def test_run_job_in_process_passes_the_log(tmp_path, monkeypatch):
+    monkeypatch.delenv(SOCKET_ENV, raising=False)
+    seen = {}
+    monkeypatch.setattr(
+        "spl_al.experiment.warm.resolve", lambda target: lambda log: seen.update(log=log)
+    )
+    run_job(tmp_path / "job.log", "any:thing", {}, pass_log=True)
+    assert seen["log"].name == str(Path(tmp_path / "job.log"))
