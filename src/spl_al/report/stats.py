@@ -132,14 +132,32 @@ def rule_text(level: float = LEVEL) -> str:
 # ---------------------------------------------------------------- AUBC
 
 
-def aubc(ratio, values) -> float:
-    """Area under one budget curve normalised to the budget range (a mean metric).
+def curve_area(ratio, mean) -> float:
+    """Normalised area under a budget curve, a mean metric over the ratio span.
 
-    trapz(values, ratio) / (ratio_max - ratio_min), ratios sorted ascending; one point
-    gives its own value. Same as ``spl_al.report.summary.curve_area``.
+    AUC = trapz(mean, ratio) / (ratio[-1] - ratio[0]) with ratios sorted ascending;
+    a single point (zero span) gives its own value. ``ratio``, ``mean``: (R,) arrays.
     """
-    from spl_al.report.summary import curve_area
+    ratio = np.asarray(ratio, dtype=float)
+    mean = np.asarray(mean, dtype=float)
+    if ratio.shape != mean.shape or ratio.ndim != 1 or ratio.size == 0:
+        raise ValueError(
+            f"ratio and mean must be 1-D arrays of one equal, non-zero length; "
+            f"got shapes {ratio.shape} and {mean.shape}."
+        )
+    order = np.argsort(ratio, kind="stable")
+    ratio, mean = ratio[order], mean[order]
+    span = ratio[-1] - ratio[0]
+    if span <= 0:
+        return float(mean.mean())
+    # Trapezoid rule written out: np.trapezoid needs numpy >= 2, the project allows 1.26.
+    area = np.sum(0.5 * (mean[1:] + mean[:-1]) * np.diff(ratio))
+    return float(area / span)
 
+
+def aubc(ratio, values) -> float:
+    """Area under one seed's budget curve normalised to the budget range (a mean metric):
+    ``curve_area`` of that seed's values."""
     return curve_area(ratio, values)
 
 
