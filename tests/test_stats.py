@@ -1,4 +1,5 @@
-"""Paired statistics, AUBC, the bold/tie rule and the claims, on hand-computed cases."""
+"""Paired statistics, Holm, power, AUBC, the bold/tie rule and the claims, on hand-computed
+cases."""
 
 from __future__ import annotations
 
@@ -14,11 +15,15 @@ from spl_al.report.comparisons import comparisons, render_comparisons_markdown
 from spl_al.report.stats import (
     aubc,
     aubc_per_seed,
+    format_seeds_needed,
+    holm,
     min_p_value,
     paired_test,
     seeds_for_level,
+    seeds_needed,
     sign_flip_p,
     t_interval,
+    t_power,
 )
 
 T_975_2 = 4.302652729911275  # t quantile 0.975 with 2 degrees of freedom
@@ -85,9 +90,99 @@ def test_rule_at_six_seeds_is_five_percent_significance():
     assert one_down["p_value"] == pytest.approx(4 / 64) and not one_down["resolved"]
 
 
+def test_five_percent_rule_from_six_seeds_vs_small_n_rule_below():
+    # Five seeds that all agree: p = 2/32 = 0.0625 > 0.05, resolved by the small-n rule.
+    five = paired_test(np.array([0.02, 0.03, 0.02, 0.025, 0.03]), np.zeros(5))
+    assert five["rule"] == "small-n" and five["p_value"] == pytest.approx(0.0625)
+    assert five["resolved"] and five["direction"] == 1
+    # Six seeds with one tiny disagreement: p = 4/64 = 0.0625 again, but now the bar is
+    # 5% significance, so the same p no longer resolves.
+    six = paired_test(np.array([0.02, 0.03, 0.02, 0.025, 0.03, -0.001]), np.zeros(6))
+    assert six["rule"] == "5%" and six["p_value"] == pytest.approx(0.0625)
+    assert not six["resolved"]
+    # Eight seeds, one disagreeing a little: p = 4/256 < 0.05 and the interval excludes
+    # zero, so the 5% rule resolves what the small-n rule (every seed agrees) would not.
+    d = np.array([0.02, 0.03, 0.02, 0.025, 0.03, 0.02, 0.028, -0.001])
+    eight = paired_test(d, np.zeros(8))
+    assert eight["p_value"] == pytest.approx(4 / 256) and eight["ci_low"] > 0
+    assert eight["rule"] == "5%" and eight["resolved"] and eight["direction"] == 1
+    assert eight["sd_diff"] == pytest.approx(d.std(ddof=1))
+
+
 def test_missing_seeds_are_dropped_pairwise():
     r = paired_test([0.5, np.nan, 0.7, 0.8], [0.4, 0.5, np.nan, 0.6])
     assert r["n"] == 2 and r["diff"] == pytest.approx(0.15)
+
+
+# --- Holm and power --------------------------------------------------------------------
+
+
+def test_holm_by_hand():
+    # sorted 0.005, 0.01, 0.03, 0.04 times 4, 3, 2, 1 = 0.02, 0.03, 0.06, 0.04; the running
+    # max makes the last 0.06; returned in the input order.
+    assert holm([0.01, 0.04, 0.03, 0.005]) == pytest.approx([0.03, 0.06, 0.06, 0.02])
+    # capped at 1, and a single test is left as it is
+    assert holm([0.4, 0.5, 0.03]) == pytest.approx([0.8, 0.8, 0.09])
+    assert holm([0.03]) == pytest.approx([0.03])
+    # a NaN counts in the family and stays NaN
+    out = holm([0.01, math.nan])
+    assert out[0] == pytest.approx(0.02) and math.isnan(out[1])
+
+
+def test_holm_is_monotone_and_capped_on_random_p_values():
+    rng = np.random.default_rng(0)
+    for _ in range(20):
+        p = rng.uniform(0, 0.5, size=rng.integers(1, 9))
+        adj = holm(p)
+        order = np.argsort(p)
+        assert (np.diff(adj[order]) >= -1e-15).all()  # same order as the raw p-values
+        assert (adj >= p - 1e-15).all() and (adj <= 1).all()
+
+
+def test_holm_matches_statsmodels():
+    multitest = pytest.importorskip("statsmodels.stats.multitest")
+    p = np.array([0.01, 0.04, 0.03, 0.005, 0.2, 0.6])
+    expected = multitest.multipletests(p, alpha=0.05, method="holm")[1]
+    assert holm(p) == pytest.approx(expected)
+
+
+def test_t_power_is_the_noncentral_t_tail():
+    # n = 10 pairs, effect 1: c = t_{0.975, 9} = 2.262, noncentrality sqrt(10) = 3.162.
+    from scipy.stats import nct
+
+    c, lam = 2.2621571627409915, math.sqrt(10)
+    expected = 1 - nct.cdf(c, 9, lam) + nct.cdf(-c, 9, lam)
+    assert t_power(10, 1.0) == pytest.approx(expected)
+    assert 0.80 < t_power(10, 1.0) < 0.81 < t_power(11, 1.0)
+    assert t_power(6, 0.0) == pytest.approx(0.05)  # no effect: the level
+
+
+@pytest.mark.parametrize(
+    ("effect", "n"),
+    # Textbook sample sizes of a two-sided paired t-test at 0.05 with 80% power (G*Power,
+    # Cohen's d_z): 0.3 -> 90, 0.5 -> 34, 0.8 -> 15, 1.0 -> 10.
+    [(0.3, 90), (0.5, 34), (0.8, 15), (1.0, 10)],
+)
+def test_seeds_needed_matches_textbook_sample_sizes(effect, n):
+    assert seeds_needed(2.0 * effect, 2.0) == n  # only the ratio diff / sd matters
+    assert seeds_needed(-2.0 * effect, 2.0) == n  # either direction
+    assert t_power(n, effect) >= 0.8 > t_power(n - 1, effect)
+
+
+def test_seeds_needed_floor_cap_and_no_effect():
+    # A huge effect would need 3 seeds for the t-test, but the sign-flip test cannot
+    # reach 0.05 below 6: the floor.
+    assert seeds_needed(3.0, 1.0) == 6 == seeds_for_level(0.05)
+    assert seeds_needed(1.0, 0.0) == 6  # no spread at all
+    assert math.isinf(seeds_needed(0.1, 1.0))  # needs ~787 seeds: above the cap of 100
+    assert all(math.isnan(seeds_needed(d, sd)) for d, sd in ((0.0, 1.0), (1.0, math.nan)))
+    assert [format_seeds_needed(x) for x in (34.0, math.inf, math.nan)] == ["34", ">100", "-"]
+
+
+def test_bigger_effect_needs_fewer_seeds():
+    effects = [0.3, 0.4, 0.5, 0.7, 1.0, 1.4, 2.0]
+    needed = [seeds_needed(e, 1.0) for e in effects]
+    assert needed == sorted(needed, reverse=True) and needed[0] > needed[-1]
 
 
 # --- AUBC -----------------------------------------------------------------------------
@@ -244,3 +339,11 @@ def test_claims_inconclusive_with_too_few_seeds_and_absent_when_not_run():
     assert out["claim_id"].tolist() == ["duis_best_every_budget", "duis_best_aubc"]
     assert set(out["verdict"]) == {"inconclusive"}
     assert out["reason"].str.contains("too few seeds").all()
+
+
+def test_comparisons_carry_the_paired_sd_and_the_rule():
+    df = frame_of({"random": 0.0, "duis": 0.10}, jitter={"duis": JITTER})
+    cmp = comparisons(df, {"budget": EXPERIMENTS["budget"]}, {})
+    assert (cmp["rule"] == "small-n").all()  # three seeds
+    # DUIS - Random per seed is 0.10 + JITTER; in pp, sd(JITTER) * 100
+    assert cmp["sd_diff"].to_numpy() == pytest.approx(np.std(JITTER, ddof=1) * 100)
