@@ -10,7 +10,7 @@ import pandas as pd
 import pytest
 
 from spl_al.report import budget_table, records_frame, render_markdown, summary
-from spl_al.report.claims import claims
+from spl_al.report.claims import claims, render_claims_markdown
 from spl_al.report.comparisons import comparisons, render_comparisons_markdown
 from spl_al.report.stats import (
     aubc,
@@ -339,6 +339,146 @@ def test_claims_inconclusive_with_too_few_seeds_and_absent_when_not_run():
     assert out["claim_id"].tolist() == ["duis_best_every_budget", "duis_best_aubc"]
     assert set(out["verdict"]) == {"inconclusive"}
     assert out["reason"].str.contains("too few seeds").all()
+
+
+# --- claims from six seeds: intersection-union, Holm, seeds needed ----------------------
+
+UP6 = np.array([0.020, 0.021, 0.019, 0.020, 0.022, 0.018])  # every seed agrees: p = 2/64
+MIXED6 = np.array([0.010, -0.005, 0.012, -0.003, 0.008, 0.001])  # unresolved, leaning A
+
+
+def budget_family(diffs, baseline: str = "random") -> pd.DataFrame:
+    """A comparisons frame of DUIS vs ``baseline`` at rounds 0..k-1 with these per-seed
+    differences (DUIS minus baseline, pp), as ``comparisons`` would write it."""
+    rows = []
+    for r, d in enumerate(diffs):
+        d = np.asarray(d, dtype=float)
+        rows.append(
+            {
+                "experiment": "budget",
+                "point": f"round {r}",
+                "parameter": None,
+                "round": r,
+                "n_labeled": 10 * (r + 1),
+                "method_a": "duis",
+                "method_b": baseline,
+                "value_a": None,
+                "value_b": None,
+                **paired_test(d, np.zeros_like(d)),
+                "dataset": "d",
+                "metric": "accuracy",
+                "scale": 100.0,
+                "synthetic_standin": False,
+            }
+        )
+    return pd.DataFrame(rows)
+
+
+def budget_claim(diffs) -> pd.Series:
+    out = claims(budget_family(diffs))
+    assert out["claim_id"].tolist() == ["duis_best_every_budget"]
+    return out.iloc[0]
+
+
+def test_one_against_at_p_003_does_not_survive_holm_over_three():
+    # One round against at p = 2/64 = 0.031 with its interval below zero: resolved against
+    # on its own, but Holm over the claim's 3 comparisons lifts it to 3 * 0.031 = 0.094.
+    fam = budget_family([-UP6, MIXED6, MIXED6])
+    assert fam["p_value"].iloc[0] == pytest.approx(0.03125) and fam["resolved"].iloc[0]
+    assert holm(fam["p_value"])[0] == pytest.approx(0.09375)
+    row = budget_claim([-UP6, MIXED6, MIXED6])
+    assert row["rule"] == "5%" and row["n_against"] == 1
+    assert row["verdict"] == "inconclusive" and "does not survive Holm" in row["reason"]
+    # The same comparison alone is a family of one: Holm leaves p = 0.031, contradicted.
+    alone = budget_claim([-UP6])
+    assert alone["verdict"] == "contradicted" and "survives Holm" in alone["reason"]
+
+
+def test_one_against_survives_holm_with_eight_seeds():
+    down8 = -np.array([0.020, 0.021, 0.019, 0.020, 0.022, 0.018, 0.020, 0.021])  # p = 2/256
+    mixed8 = np.array([0.010, -0.005, 0.012, -0.003, 0.008, 0.001, 0.002, -0.001])
+    row = budget_claim([down8, mixed8, mixed8])  # Holm: 3 * 2/256 = 0.023 <= 0.05
+    assert row["verdict"] == "contradicted" and row["rule"] == "5%"
+
+
+def test_supported_is_intersection_union_without_correction():
+    # Three rounds each at p = 0.031: a Bonferroni or Holm correction (3 * 0.031 > 0.05)
+    # would refuse them, the intersection-union test needs each at 0.05 only.
+    row = budget_claim([UP6, UP6 * 1.5, UP6 * 2])
+    assert row["verdict"] == "supported" and row["rule"] == "5%"
+    assert budget_claim([UP6, UP6, MIXED6])["verdict"] == "inconclusive"
+
+
+def test_small_n_claims_are_contradicted_without_holm():
+    up3 = UP6[:3]  # every seed agrees: p = 0.25, resolved by the small-n rule
+    row = budget_claim([-up3, up3 + 0.01, up3 + 0.02])
+    assert row["rule"] == "small-n" and row["verdict"] == "contradicted"
+    assert row["reason"] == "a comparison resolved against"
+
+
+def with_effect(mean: float, sd: float, n: int = 6) -> np.ndarray:
+    """n per-seed differences with exactly this mean and sd (ddof 1)."""
+    z = np.linspace(-1, 1, n)
+    return mean + sd * z / z.std(ddof=1)
+
+
+def test_claim_seeds_needed_is_the_weakest_comparison():
+    # effects 1.0 and 0.5 -> 10 and 34 seeds: the claim needs both, so 34
+    row = budget_claim([with_effect(2.0, 2.0), with_effect(1.0, 2.0)])
+    assert row["seeds_needed"] == "34"
+    assert budget_claim([with_effect(2.0, 2.0)])["seeds_needed"] == "10"
+    assert budget_claim([with_effect(0.1, 1.0), UP6])["seeds_needed"] == ">100"
+    # a round with no difference at all: no effect to resolve, not "too few seeds"
+    assert budget_claim([np.zeros(6), UP6])["seeds_needed"] == "-"
+
+
+def test_claims_table_marks_the_rule_and_shows_seeds_needed():
+    six = claims(budget_family([UP6, -UP6 * 0.5]))
+    md = render_claims_markdown(six)
+    assert "| Seeds needed (80% power) |" in md
+    assert "**inconclusive**¹" in md and "¹ n >= 6 seeds (5% rule)" in md
+    assert "intersection-union" in md and "Holm" in md and "small-n rule" not in md
+    three = render_claims_markdown(claims(budget_family([UP6[:3]])))
+    assert "**supported**²" in three and "² n < 6 seeds (small-n rule)" in three
+    assert "¹ n >= 6" not in three
+
+
+def sweep_family(parameter: str, pairs) -> pd.DataFrame:
+    """Sensitivity rows of ``parameter``: (value_a, value_b, per-seed d = A - B) each."""
+    rows = []
+    for value_a, value_b, d in pairs:
+        fam = budget_family([d]).iloc[0].to_dict()
+        method = {v: f"duis_{parameter}{v}" for v in (value_a, value_b)}
+        fam |= {"experiment": "sensitivity", "point": f"{parameter} at round 2"}
+        fam |= {"parameter": parameter, "round": 2, "value_a": value_a, "value_b": value_b}
+        fam |= {"method_a": method[value_a], "method_b": method[value_b]}
+        rows.append(fam)
+    return pd.DataFrame(rows)
+
+
+def test_not_worse_than_needs_seeds_for_the_distance_to_the_margin():
+    # alpha = 0.5 vs 0.25 with no difference (mean 0, sd 2 pp): the non-inferiority bound
+    # is -1 pp, so the effect is (0 + 1) / 2 = 0.5 -> 34 seeds, not "-" (no effect).
+    row = claims(sweep_family("alpha", [(0.5, 0.25, with_effect(0.0, 2.0))])).iloc[0]
+    assert row["claim_id"] == "alpha_half_not_worse" and row["seeds_needed"] == "34"
+    assert row["verdict"] == "inconclusive"  # the interval reaches below -1 pp
+    # three times worse than the margin: no effect towards non-inferiority
+    row = claims(sweep_family("alpha", [(0.5, 0.25, with_effect(-3.0, 2.0))])).iloc[0]
+    assert row["seeds_needed"] == "-"
+
+
+def test_ncand_step_down_is_judged_with_holm_over_its_family():
+    # N_cand 40 < 80 < 160: the family is 160 vs 40 and the steps 80 vs 40, 160 vs 80.
+    # 160 vs 80 falls by ~2 pp on every seed (p = 0.031): alone it would contradict,
+    # Holm over the 3 comparisons does not let it.
+    pairs = [(160, 40, MIXED6), (80, 40, MIXED6), (160, 80, -UP6 * 100)]
+    row = claims(sweep_family("n_cand", pairs)).iloc[0]
+    assert row["claim_id"] == "ncand_grows_to_plateau" and row["n_comparisons"] == 3
+    assert row["verdict"] == "inconclusive" and row["rule"] == "5%"
+    assert "not past Holm" in row["reason"]
+    # with Holm's help removed (a family of one step) the same fall contradicts
+    alone = claims(sweep_family("n_cand", [(160, 80, -UP6 * 100)])).iloc[0]
+    assert alone["verdict"] == "contradicted"
 
 
 def test_comparisons_carry_the_paired_sd_and_the_rule():
