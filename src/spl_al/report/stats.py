@@ -37,6 +37,8 @@ so two methods are compared *per seed*: d_s = x_A,s - x_B,s over the seeds both 
   powerful at the smallest n (at n = 6 it needs every seed to agree), and the observed
   delta and sigma are themselves noisy: the number is a guide (no effect vs. too few
   seeds), not a guarantee.
+- **AUBC** (``curve_area``, ``aubc``): area under a budget curve over its ratio span,
+  trapz(values, ratio) / (ratio_max - ratio_min); ``summary`` imports it from here.
 """
 
 from __future__ import annotations
