@@ -434,3 +434,43 @@ def test_plot_files_are_png_and_pdf(df, tmp_path):
     png, pdf = plot_level_curves(df, tmp_path / "l.png", tmp_path / "l.pdf")
     assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
     assert pdf.read_bytes()[:5] == b"%PDF-"
+
+
+def _report_imports() -> dict[str, set[str]]:
+    """spl_al.report module -> the spl_al.report modules it imports (at any depth of code)."""
+    import ast
+    from pathlib import Path
+
+    import spl_al.report as pkg
+
+    root = Path(pkg.__file__).parent
+    stems = {p.stem for p in root.glob("*.py")}
+    graph = {}
+    for path in root.glob("*.py"):
+        names = []
+        for node in ast.walk(ast.parse(path.read_text())):
+            if isinstance(node, ast.Import):
+                names += [a.name for a in node.names]
+            elif isinstance(node, ast.ImportFrom) and node.module:
+                names.append(node.module)
+                names += [f"{node.module}.{a.name}" for a in node.names]
+        found = {n.split(".")[2] for n in names if n.startswith("spl_al.report.")}
+        graph[path.stem] = (found & stems) - {path.stem}
+    return graph
+
+
+def test_report_modules_import_no_circle():
+    graph = _report_imports()
+    assert "summary" not in graph["stats"]  # the circle stats <-> summary is gone
+
+    def reach(start: str) -> set[str]:
+        seen, todo = set(), [start]
+        while todo:
+            for nxt in graph.get(todo.pop(), ()):
+                if nxt not in seen:
+                    seen.add(nxt)
+                    todo.append(nxt)
+        return seen
+
+    circles = sorted(m for m in graph if m != "__init__" and m in reach(m))
+    assert circles == []

@@ -1,4 +1,5 @@
-"""Paired statistics, AUBC, the bold/tie rule and the claims, on hand-computed cases."""
+"""Paired statistics, Holm, power, AUBC, the bold/tie rule and the claims, on hand-computed
+cases."""
 
 from __future__ import annotations
 
@@ -9,16 +10,20 @@ import pandas as pd
 import pytest
 
 from spl_al.report import budget_table, records_frame, render_markdown, summary
-from spl_al.report.claims import claims
+from spl_al.report.claims import claims, render_claims_markdown
 from spl_al.report.comparisons import comparisons, render_comparisons_markdown
 from spl_al.report.stats import (
     aubc,
     aubc_per_seed,
+    format_seeds_needed,
+    holm,
     min_p_value,
     paired_test,
     seeds_for_level,
+    seeds_needed,
     sign_flip_p,
     t_interval,
+    t_power,
 )
 
 T_975_2 = 4.302652729911275  # t quantile 0.975 with 2 degrees of freedom
@@ -85,9 +90,99 @@ def test_rule_at_six_seeds_is_five_percent_significance():
     assert one_down["p_value"] == pytest.approx(4 / 64) and not one_down["resolved"]
 
 
+def test_five_percent_rule_from_six_seeds_vs_small_n_rule_below():
+    # Five seeds that all agree: p = 2/32 = 0.0625 > 0.05, resolved by the small-n rule.
+    five = paired_test(np.array([0.02, 0.03, 0.02, 0.025, 0.03]), np.zeros(5))
+    assert five["rule"] == "small-n" and five["p_value"] == pytest.approx(0.0625)
+    assert five["resolved"] and five["direction"] == 1
+    # Six seeds with one tiny disagreement: p = 4/64 = 0.0625 again, but now the bar is
+    # 5% significance, so the same p no longer resolves.
+    six = paired_test(np.array([0.02, 0.03, 0.02, 0.025, 0.03, -0.001]), np.zeros(6))
+    assert six["rule"] == "5%" and six["p_value"] == pytest.approx(0.0625)
+    assert not six["resolved"]
+    # Eight seeds, one disagreeing a little: p = 4/256 < 0.05 and the interval excludes
+    # zero, so the 5% rule resolves what the small-n rule (every seed agrees) would not.
+    d = np.array([0.02, 0.03, 0.02, 0.025, 0.03, 0.02, 0.028, -0.001])
+    eight = paired_test(d, np.zeros(8))
+    assert eight["p_value"] == pytest.approx(4 / 256) and eight["ci_low"] > 0
+    assert eight["rule"] == "5%" and eight["resolved"] and eight["direction"] == 1
+    assert eight["sd_diff"] == pytest.approx(d.std(ddof=1))
+
+
 def test_missing_seeds_are_dropped_pairwise():
     r = paired_test([0.5, np.nan, 0.7, 0.8], [0.4, 0.5, np.nan, 0.6])
     assert r["n"] == 2 and r["diff"] == pytest.approx(0.15)
+
+
+# --- Holm and power --------------------------------------------------------------------
+
+
+def test_holm_by_hand():
+    # sorted 0.005, 0.01, 0.03, 0.04 times 4, 3, 2, 1 = 0.02, 0.03, 0.06, 0.04; the running
+    # max makes the last 0.06; returned in the input order.
+    assert holm([0.01, 0.04, 0.03, 0.005]) == pytest.approx([0.03, 0.06, 0.06, 0.02])
+    # capped at 1, and a single test is left as it is
+    assert holm([0.4, 0.5, 0.03]) == pytest.approx([0.8, 0.8, 0.09])
+    assert holm([0.03]) == pytest.approx([0.03])
+    # a NaN counts in the family and stays NaN
+    out = holm([0.01, math.nan])
+    assert out[0] == pytest.approx(0.02) and math.isnan(out[1])
+
+
+def test_holm_is_monotone_and_capped_on_random_p_values():
+    rng = np.random.default_rng(0)
+    for _ in range(20):
+        p = rng.uniform(0, 0.5, size=rng.integers(1, 9))
+        adj = holm(p)
+        order = np.argsort(p)
+        assert (np.diff(adj[order]) >= -1e-15).all()  # same order as the raw p-values
+        assert (adj >= p - 1e-15).all() and (adj <= 1).all()
+
+
+def test_holm_matches_statsmodels():
+    multitest = pytest.importorskip("statsmodels.stats.multitest")
+    p = np.array([0.01, 0.04, 0.03, 0.005, 0.2, 0.6])
+    expected = multitest.multipletests(p, alpha=0.05, method="holm")[1]
+    assert holm(p) == pytest.approx(expected)
+
+
+def test_t_power_is_the_noncentral_t_tail():
+    # n = 10 pairs, effect 1: c = t_{0.975, 9} = 2.262, noncentrality sqrt(10) = 3.162.
+    from scipy.stats import nct
+
+    c, lam = 2.2621571627409915, math.sqrt(10)
+    expected = 1 - nct.cdf(c, 9, lam) + nct.cdf(-c, 9, lam)
+    assert t_power(10, 1.0) == pytest.approx(expected)
+    assert 0.80 < t_power(10, 1.0) < 0.81 < t_power(11, 1.0)
+    assert t_power(6, 0.0) == pytest.approx(0.05)  # no effect: the level
+
+
+@pytest.mark.parametrize(
+    ("effect", "n"),
+    # Textbook sample sizes of a two-sided paired t-test at 0.05 with 80% power (G*Power,
+    # Cohen's d_z): 0.3 -> 90, 0.5 -> 34, 0.8 -> 15, 1.0 -> 10.
+    [(0.3, 90), (0.5, 34), (0.8, 15), (1.0, 10)],
+)
+def test_seeds_needed_matches_textbook_sample_sizes(effect, n):
+    assert seeds_needed(2.0 * effect, 2.0) == n  # only the ratio diff / sd matters
+    assert seeds_needed(-2.0 * effect, 2.0) == n  # either direction
+    assert t_power(n, effect) >= 0.8 > t_power(n - 1, effect)
+
+
+def test_seeds_needed_floor_cap_and_no_effect():
+    # A huge effect would need 3 seeds for the t-test, but the sign-flip test cannot
+    # reach 0.05 below 6: the floor.
+    assert seeds_needed(3.0, 1.0) == 6 == seeds_for_level(0.05)
+    assert seeds_needed(1.0, 0.0) == 6  # no spread at all
+    assert math.isinf(seeds_needed(0.1, 1.0))  # needs ~787 seeds: above the cap of 100
+    assert all(math.isnan(seeds_needed(d, sd)) for d, sd in ((0.0, 1.0), (1.0, math.nan)))
+    assert [format_seeds_needed(x) for x in (34.0, math.inf, math.nan)] == ["34", ">100", "-"]
+
+
+def test_bigger_effect_needs_fewer_seeds():
+    effects = [0.3, 0.4, 0.5, 0.7, 1.0, 1.4, 2.0]
+    needed = [seeds_needed(e, 1.0) for e in effects]
+    assert needed == sorted(needed, reverse=True) and needed[0] > needed[-1]
 
 
 # --- AUBC -----------------------------------------------------------------------------
@@ -244,3 +339,151 @@ def test_claims_inconclusive_with_too_few_seeds_and_absent_when_not_run():
     assert out["claim_id"].tolist() == ["duis_best_every_budget", "duis_best_aubc"]
     assert set(out["verdict"]) == {"inconclusive"}
     assert out["reason"].str.contains("too few seeds").all()
+
+
+# --- claims from six seeds: intersection-union, Holm, seeds needed ----------------------
+
+UP6 = np.array([0.020, 0.021, 0.019, 0.020, 0.022, 0.018])  # every seed agrees: p = 2/64
+MIXED6 = np.array([0.010, -0.005, 0.012, -0.003, 0.008, 0.001])  # unresolved, leaning A
+
+
+def budget_family(diffs, baseline: str = "random") -> pd.DataFrame:
+    """A comparisons frame of DUIS vs ``baseline`` at rounds 0..k-1 with these per-seed
+    differences (DUIS minus baseline, pp), as ``comparisons`` would write it."""
+    rows = []
+    for r, d in enumerate(diffs):
+        d = np.asarray(d, dtype=float)
+        rows.append(
+            {
+                "experiment": "budget",
+                "point": f"round {r}",
+                "parameter": None,
+                "round": r,
+                "n_labeled": 10 * (r + 1),
+                "method_a": "duis",
+                "method_b": baseline,
+                "value_a": None,
+                "value_b": None,
+                **paired_test(d, np.zeros_like(d)),
+                "dataset": "d",
+                "metric": "accuracy",
+                "scale": 100.0,
+                "synthetic_standin": False,
+            }
+        )
+    return pd.DataFrame(rows)
+
+
+def budget_claim(diffs) -> pd.Series:
+    out = claims(budget_family(diffs))
+    assert out["claim_id"].tolist() == ["duis_best_every_budget"]
+    return out.iloc[0]
+
+
+def test_one_against_at_p_003_does_not_survive_holm_over_three():
+    # One round against at p = 2/64 = 0.031 with its interval below zero: resolved against
+    # on its own, but Holm over the claim's 3 comparisons lifts it to 3 * 0.031 = 0.094.
+    fam = budget_family([-UP6, MIXED6, MIXED6])
+    assert fam["p_value"].iloc[0] == pytest.approx(0.03125) and fam["resolved"].iloc[0]
+    assert holm(fam["p_value"])[0] == pytest.approx(0.09375)
+    row = budget_claim([-UP6, MIXED6, MIXED6])
+    assert row["rule"] == "5%" and row["n_against"] == 1
+    assert row["verdict"] == "inconclusive" and "does not survive Holm" in row["reason"]
+    # The same comparison alone is a family of one: Holm leaves p = 0.031, contradicted.
+    alone = budget_claim([-UP6])
+    assert alone["verdict"] == "contradicted" and "survives Holm" in alone["reason"]
+
+
+def test_one_against_survives_holm_with_eight_seeds():
+    down8 = -np.array([0.020, 0.021, 0.019, 0.020, 0.022, 0.018, 0.020, 0.021])  # p = 2/256
+    mixed8 = np.array([0.010, -0.005, 0.012, -0.003, 0.008, 0.001, 0.002, -0.001])
+    row = budget_claim([down8, mixed8, mixed8])  # Holm: 3 * 2/256 = 0.023 <= 0.05
+    assert row["verdict"] == "contradicted" and row["rule"] == "5%"
+
+
+def test_supported_is_intersection_union_without_correction():
+    # Three rounds each at p = 0.031: a Bonferroni or Holm correction (3 * 0.031 > 0.05)
+    # would refuse them, the intersection-union test needs each at 0.05 only.
+    row = budget_claim([UP6, UP6 * 1.5, UP6 * 2])
+    assert row["verdict"] == "supported" and row["rule"] == "5%"
+    assert budget_claim([UP6, UP6, MIXED6])["verdict"] == "inconclusive"
+
+
+def test_small_n_claims_are_contradicted_without_holm():
+    up3 = UP6[:3]  # every seed agrees: p = 0.25, resolved by the small-n rule
+    row = budget_claim([-up3, up3 + 0.01, up3 + 0.02])
+    assert row["rule"] == "small-n" and row["verdict"] == "contradicted"
+    assert row["reason"] == "a comparison resolved against"
+
+
+def with_effect(mean: float, sd: float, n: int = 6) -> np.ndarray:
+    """n per-seed differences with exactly this mean and sd (ddof 1)."""
+    z = np.linspace(-1, 1, n)
+    return mean + sd * z / z.std(ddof=1)
+
+
+def test_claim_seeds_needed_is_the_weakest_comparison():
+    # effects 1.0 and 0.5 -> 10 and 34 seeds: the claim needs both, so 34
+    row = budget_claim([with_effect(2.0, 2.0), with_effect(1.0, 2.0)])
+    assert row["seeds_needed"] == "34"
+    assert budget_claim([with_effect(2.0, 2.0)])["seeds_needed"] == "10"
+    assert budget_claim([with_effect(0.1, 1.0), UP6])["seeds_needed"] == ">100"
+    # a round with no difference at all: no effect to resolve, not "too few seeds"
+    assert budget_claim([np.zeros(6), UP6])["seeds_needed"] == "-"
+
+
+def test_claims_table_marks_the_rule_and_shows_seeds_needed():
+    six = claims(budget_family([UP6, -UP6 * 0.5]))
+    md = render_claims_markdown(six)
+    assert "| Seeds needed (80% power) |" in md
+    assert "**inconclusive**¹" in md and "¹ n >= 6 seeds (5% rule)" in md
+    assert "intersection-union" in md and "Holm" in md and "small-n rule" not in md
+    three = render_claims_markdown(claims(budget_family([UP6[:3]])))
+    assert "**supported**²" in three and "² n < 6 seeds (small-n rule)" in three
+    assert "¹ n >= 6" not in three
+
+
+def sweep_family(parameter: str, pairs) -> pd.DataFrame:
+    """Sensitivity rows of ``parameter``: (value_a, value_b, per-seed d = A - B) each."""
+    rows = []
+    for value_a, value_b, d in pairs:
+        fam = budget_family([d]).iloc[0].to_dict()
+        method = {v: f"duis_{parameter}{v}" for v in (value_a, value_b)}
+        fam |= {"experiment": "sensitivity", "point": f"{parameter} at round 2"}
+        fam |= {"parameter": parameter, "round": 2, "value_a": value_a, "value_b": value_b}
+        fam |= {"method_a": method[value_a], "method_b": method[value_b]}
+        rows.append(fam)
+    return pd.DataFrame(rows)
+
+
+def test_not_worse_than_needs_seeds_for_the_distance_to_the_margin():
+    # alpha = 0.5 vs 0.25 with no difference (mean 0, sd 2 pp): the non-inferiority bound
+    # is -1 pp, so the effect is (0 + 1) / 2 = 0.5 -> 34 seeds, not "-" (no effect).
+    row = claims(sweep_family("alpha", [(0.5, 0.25, with_effect(0.0, 2.0))])).iloc[0]
+    assert row["claim_id"] == "alpha_half_not_worse" and row["seeds_needed"] == "34"
+    assert row["verdict"] == "inconclusive"  # the interval reaches below -1 pp
+    # three times worse than the margin: no effect towards non-inferiority
+    row = claims(sweep_family("alpha", [(0.5, 0.25, with_effect(-3.0, 2.0))])).iloc[0]
+    assert row["seeds_needed"] == "-"
+
+
+def test_ncand_step_down_is_judged_with_holm_over_its_family():
+    # N_cand 40 < 80 < 160: the family is 160 vs 40 and the steps 80 vs 40, 160 vs 80.
+    # 160 vs 80 falls by ~2 pp on every seed (p = 0.031): alone it would contradict,
+    # Holm over the 3 comparisons does not let it.
+    pairs = [(160, 40, MIXED6), (80, 40, MIXED6), (160, 80, -UP6 * 100)]
+    row = claims(sweep_family("n_cand", pairs)).iloc[0]
+    assert row["claim_id"] == "ncand_grows_to_plateau" and row["n_comparisons"] == 3
+    assert row["verdict"] == "inconclusive" and row["rule"] == "5%"
+    assert "not past Holm" in row["reason"]
+    # with Holm's help removed (a family of one step) the same fall contradicts
+    alone = claims(sweep_family("n_cand", [(160, 80, -UP6 * 100)])).iloc[0]
+    assert alone["verdict"] == "contradicted"
+
+
+def test_comparisons_carry_the_paired_sd_and_the_rule():
+    df = frame_of({"random": 0.0, "duis": 0.10}, jitter={"duis": JITTER})
+    cmp = comparisons(df, {"budget": EXPERIMENTS["budget"]}, {})
+    assert (cmp["rule"] == "small-n").all()  # three seeds
+    # DUIS - Random per seed is 0.10 + JITTER; in pp, sd(JITTER) * 100
+    assert cmp["sd_diff"].to_numpy() == pytest.approx(np.std(JITTER, ddof=1) * 100)

@@ -32,7 +32,8 @@ from spl_al.report.records import (
     validate_record,
 )
 from spl_al.report.render import latex_escape, render_latex, render_markdown
-from spl_al.report.summary import curve_area, summary
+from spl_al.report.stats import curve_area
+from spl_al.report.summary import summary
 from spl_al.report.tables import ablation_table, budget_table, level_table, sensitivity_table
 from spl_al.report.writers import read_table, write_json, write_table
 

@@ -1,22 +1,44 @@
 """The paper's claims, checked against one dataset's paired comparisons.
 
 Each claim is restated in one line and judged from the rows of
-``spl_al.report.comparisons`` it needs (so tables, comparisons and claims apply one
-rule, ``spl_al.report.stats``):
+``spl_al.report.comparisons`` it needs, its *family* (so tables, comparisons and claims
+apply one rule, ``spl_al.report.stats``). Which rule applies depends on the fewest
+seeds any comparison of the family pairs up (``rule`` column):
 
-- **supported**: every comparison the claim needs is resolved in its favour;
-- **contradicted**: at least one is resolved against it;
-- **inconclusive**: otherwise: too few seeds (n < 3), or an interval that spans zero,
-  or seeds that disagree in direction.
+- **"5%" rule, n >= 6 seeds.**
+  *supported*: every comparison the claim needs is resolved in its favour at 5%
+  (sign-flip p <= 0.05, 95% interval excluding zero). A claim that needs several
+  comparisons to hold at once is an intersection-union test: each comparison at level
+  0.05, no correction. *contradicted*: at least one comparison resolved against the
+  claim survives Holm's step-down at 0.05 over the claim's family (adjusted p~ =
+  ``stats.holm`` of the family's p-values <= 0.05, interval excluding zero): "any one
+  of m comparisons against" tests m hypotheses at once, and Holm keeps the chance of a
+  false contradiction at 5%.
+- **"small-n" rule, 3 <= n < 6 seeds.** No test on n seeds reaches 0.05, so each
+  comparison is resolved when every seed agrees and the interval excludes zero
+  (weaker than 5% significance): *supported* when every comparison is resolved in
+  favour, *contradicted* when one is resolved against, without correction (Holm
+  could never reject: its smallest p~ is m * 2/2^n > 0.05).
+- **inconclusive**: otherwise: too few seeds (n < 3), an interval that spans zero,
+  seeds that disagree, or a comparison against that does not survive Holm.
 
 "Not worse than" (alpha = 0.5 vs its neighbours) is a non-inferiority claim: supported
 when every 95% interval of (0.5 minus the other) lies above -``MARGIN_PP`` percentage
-points (and n >= 3), contradicted when one is resolved below zero. "Grows up to a
-plateau" (N_cand) is supported when the largest N_cand is resolved above the smallest
-and no step between neighbouring values is resolved downward; contradicted when the
-largest is resolved below the smallest or a step falls by more than ``MARGIN_PP``
-(its whole interval below -MARGIN_PP). A claim whose experiment is not configured for
+points (and n >= 3), contradicted when one is resolved below zero (as above). "Grows
+up to a plateau" (N_cand) is judged on the largest vs the smallest N_cand and each
+step between neighbouring values: supported when the largest is resolved above the
+smallest and no step is resolved downward; contradicted when the largest is resolved
+below the smallest or a step falls by more than ``MARGIN_PP`` (its whole interval
+below -MARGIN_PP), counted as above. A claim whose experiment is not configured for
 the dataset (or has no records) is absent.
+
+``seeds_needed`` (per claim): ``stats.seeds_needed`` of the comparison the claim needs
+that needs the most seeds: the fewest seeds (>= 6) at which a paired t-test at 0.05
+has 80% power for the observed effect |mean d| / sd(d) of every comparison the claim
+needs (for non-inferiority, (mean d + MARGIN_PP) / sd(d); for N_cand, the largest vs
+the smallest). ">100" above the cap; "-" when a needed effect is zero or undefined
+(no effect to resolve, or fewer than 2 seeds), which tells "no effect" from "too few
+seeds".
 """
 
 from __future__ import annotations
@@ -28,7 +50,16 @@ import pandas as pd
 
 from spl_al.report.comparisons import comparison_text
 from spl_al.report.display import ABLATION_LABELS, FULL_METHOD, METRIC_LABELS, method_label
-from spl_al.report.stats import MIN_SEEDS, rule_text
+from spl_al.report.stats import (
+    LEVEL,
+    MIN_SEEDS,
+    format_seeds_needed,
+    holm,
+    rule_name,
+    rule_text,
+    seeds_for_level,
+    seeds_needed,
+)
 
 MARGIN_PP = 1.0
 """Non-inferiority margin in percentage points of the metric."""
@@ -46,6 +77,8 @@ COLUMNS = (
     "n_for",
     "n_against",
     "min_n",
+    "rule",
+    "seeds_needed",
     "dataset",
     "metric",
 )
@@ -70,19 +103,59 @@ def _oriented(rows: pd.DataFrame, winner_of) -> pd.DataFrame:
     return out
 
 
+def _rule(rows: pd.DataFrame) -> str:
+    """The claim's rule: "5%" when every comparison pairs >= 6 seeds, else "small-n"."""
+    return rule_name(int(rows["n"].min()))
+
+
+def _resolved_against(rows: pd.DataFrame) -> pd.Series:
+    """Oriented rows resolved against the claim, each on its own (no correction)."""
+    return (rows["direction"] < 0) & rows["resolved"].astype(bool)
+
+
+def _against(rows: pd.DataFrame) -> pd.Series:
+    """Oriented rows against the claim that count for "contradicted".
+
+    "5%" rule: resolved against and Holm-adjusted p~ <= LEVEL over the family ``rows``;
+    "small-n" rule: resolved against (no correction; see the module docstring).
+    """
+    against = _resolved_against(rows)
+    if _rule(rows) == "small-n":
+        return against
+    adjusted = pd.Series(holm(rows["p_value"]), index=rows.index)
+    return against & (adjusted <= LEVEL * (1 + 1e-9))
+
+
+def _seeds_needed(rows: pd.DataFrame, margin: float = 0.0) -> str:
+    """``stats.seeds_needed`` of the needed comparison that needs the most seeds, for a
+    table: effect (diff + margin) / sd_diff per row; "-" when one has none."""
+    shifted = rows["diff"].astype(float) + margin
+    if margin > 0:
+        shifted = shifted.where(shifted > 0, np.nan)  # inferior beyond the margin: none
+    needed = [
+        seeds_needed(d, sd) for d, sd in zip(shifted, rows["sd_diff"].astype(float), strict=True)
+    ]
+    return format_seeds_needed(max(needed) if not np.isnan(needed).any() else np.nan)
+
+
 def _reason(rows: pd.DataFrame, verdict: str) -> str:
     min_n = int(rows["n"].min())
     if verdict == SUPPORTED:
         return "every comparison resolved in favour"
     if verdict == CONTRADICTED:
-        return "a comparison resolved against"
+        if _rule(rows) == "small-n":
+            return "a comparison resolved against"
+        return f"a comparison resolved against survives Holm over {len(rows)}"
     if min_n < MIN_SEEDS:
         return f"too few seeds (n = {min_n} < {MIN_SEEDS})"
+    if _resolved_against(rows).any():
+        return f"a comparison against does not survive Holm over {len(rows)}"
     return "an interval spans zero or the seeds disagree"
 
 
-def _claim(claim_id, text, experiment, rows, verdict, reason=None, focus=None) -> dict:
-    """One claims row; the evidence quotes ``focus`` (default: the weakest comparison)."""
+def _claim(claim_id, text, experiment, rows, verdict, reason=None, focus=None, seeds=None):
+    """One claims row of the family ``rows``; the evidence quotes ``focus`` (default:
+    the weakest comparison); ``seeds`` defaults to ``_seeds_needed(rows)``."""
     if focus is None:
         # The comparison that holds the claim back: not resolved in favour, fewest
         # seeds, lowest interval bound.
@@ -92,10 +165,13 @@ def _claim(claim_id, text, experiment, rows, verdict, reason=None, focus=None) -
         )
         focus = key.sort_values(["_ok", "n", "_low"], kind="stable").iloc[0]
     n_for = int(((rows["direction"] > 0) & rows["resolved"]).sum())
-    n_against = int(((rows["direction"] < 0) & rows["resolved"]).sum())
+    n_against = int(_resolved_against(rows).sum())
+    holm_note = ""
+    if n_against and _rule(rows) != "small-n":
+        holm_note = f" ({int(_against(rows).sum())} after Holm)"
     point = f"{focus['point']}: " if focus.get("point") else ""
     evidence = (
-        f"{n_for} of {len(rows)} comparisons resolved for, {n_against} against; "
+        f"{n_for} of {len(rows)} comparisons resolved for, {n_against} against{holm_note}; "
         f"weakest: {point}{comparison_text(focus)}"
     )
     return {
@@ -109,19 +185,20 @@ def _claim(claim_id, text, experiment, rows, verdict, reason=None, focus=None) -
         "n_for": n_for,
         "n_against": n_against,
         "min_n": int(rows["n"].min()),
+        "rule": _rule(rows),
+        "seeds_needed": _seeds_needed(rows) if seeds is None else seeds,
     }
 
 
 def _all_beat(claim_id, text, experiment, rows) -> dict | None:
-    """Claim "A beats B" for every (oriented) row."""
+    """Claim "A beats B" for every (oriented) row: intersection-union for supported,
+    ``_against`` (Holm from 6 seeds) for contradicted."""
     if rows.empty:
         return None
-    against = ((rows["direction"] < 0) & rows["resolved"]).any()
+    against = _against(rows)
     support = (rows["direction"] > 0).all() and rows["resolved"].all()
-    verdict = CONTRADICTED if against else SUPPORTED if support else INCONCLUSIVE
-    focus = None
-    if against:
-        focus = rows[(rows["direction"] < 0) & rows["resolved"]].iloc[0]
+    verdict = CONTRADICTED if against.any() else SUPPORTED if support else INCONCLUSIVE
+    focus = rows[against].iloc[0] if against.any() else None
     return _claim(claim_id, text, experiment, rows, verdict, focus=focus)
 
 
@@ -223,7 +300,7 @@ def _alpha_claim(cmp: pd.DataFrame) -> dict | None:
     if rows.empty:
         return None
     rows = _oriented(rows, lambda r: r["method_a"] if float(r["value_a"]) == 0.5 else r["method_b"])
-    against = ((rows["direction"] < 0) & rows["resolved"]).any()
+    against = _against(rows).any()
     support = (rows["n"] >= MIN_SEEDS).all() and (rows["ci_low"] > -MARGIN_PP).all()
     verdict = CONTRADICTED if against else SUPPORTED if support else INCONCLUSIVE
     reason = None
@@ -239,7 +316,20 @@ def _alpha_claim(cmp: pd.DataFrame) -> dict | None:
         rows,
         verdict,
         reason,
+        seeds=_seeds_needed(rows, margin=MARGIN_PP),
     )
+
+
+def _ncand_family(rows: pd.DataFrame, values: list[float]) -> pd.DataFrame:
+    """The N_cand comparisons the claim needs, oriented: the largest vs the smallest
+    first, then each step between neighbouring values (empty without the ends)."""
+    a, b = rows["value_a"].astype(float), rows["value_b"].astype(float)
+    ends = rows[(a == values[-1]) & (b == values[0])]
+    if ends.empty:
+        return ends
+    steps = [rows[(a == hi) & (b == lo)] for lo, hi in itertools.pairwise(values)]
+    family = pd.concat([ends.iloc[:1], *steps])
+    return family[~family.index.duplicated()]  # with two values the end is the step
 
 
 def _ncand_claim(cmp: pd.DataFrame) -> dict | None:
@@ -251,33 +341,29 @@ def _ncand_claim(cmp: pd.DataFrame) -> dict | None:
         lambda r: r["method_a"] if float(r["value_a"]) > float(r["value_b"]) else r["method_b"],
     )
     values = sorted({float(v) for v in pd.concat([rows["value_a"], rows["value_b"]])})
-    lo, hi = values[0], values[-1]
-    ends = rows[(rows["value_a"].astype(float) == hi) & (rows["value_b"].astype(float) == lo)]
-    steps = pd.concat(
-        [
-            rows[(rows["value_a"].astype(float) == b) & (rows["value_b"].astype(float) == a)]
-            for a, b in itertools.pairwise(values)
-        ]
-    )
-    if ends.empty:
+    family = _ncand_family(rows, values)
+    if family.empty:
         return None
-    end = ends.iloc[0]
-    fell = (steps["ci_high"] < -MARGIN_PP) & steps["resolved"]
-    step_down = (steps["direction"] < 0) & steps["resolved"]
-    if (end["resolved"] and end["direction"] < 0) or fell.any():
+    end, against = family.iloc[0], _against(family)
+    fell = against & (family["ci_high"] < -MARGIN_PP)
+    if against.iloc[0] or fell.iloc[1:].any():
         verdict, reason = CONTRADICTED, "the largest N_cand is worse, or a step falls"
-    elif end["resolved"] and end["direction"] > 0 and not step_down.any():
+    elif end["resolved"] and end["direction"] > 0 and not _resolved_against(family).any():
         verdict, reason = SUPPORTED, "largest above smallest, no step resolved downward"
+    elif _resolved_against(family).any() and int(family["n"].min()) >= MIN_SEEDS:
+        verdict = INCONCLUSIVE
+        reason = f"a comparison against, not past Holm (or a step under {MARGIN_PP:g} pp)"
     else:
-        verdict, reason = INCONCLUSIVE, _reason(rows, INCONCLUSIVE)
+        verdict, reason = INCONCLUSIVE, _reason(family, INCONCLUSIVE)
     return _claim(
         "ncand_grows_to_plateau",
         f"Accuracy grows with N_cand ({', '.join(f'{v:g}' for v in values)}) up to a plateau.",
         "sensitivity",
-        rows,
+        family,
         verdict,
         reason,
         focus=end,
+        seeds=_seeds_needed(family.iloc[:1]),
     )
 
 
@@ -304,27 +390,74 @@ def claims(cmp: pd.DataFrame) -> pd.DataFrame:
     return frame[list(COLUMNS)]
 
 
-def claims_rule_text() -> str:
-    """The verdict rule in one paragraph (the README and the claims table quote it)."""
+_MARKS = {"5%": "¹", "small-n": "²"}
+
+
+def rule_notes() -> dict[str, str]:
+    """Rule name -> the verdict rule it stands for, in one sentence each."""
+    n6 = seeds_for_level()
+    return {
+        "5%": (
+            f"n >= {n6} seeds (5% rule): supported is an intersection-union test, every "
+            "comparison the claim needs resolved in its favour at 5% (sign-flip p <= 0.05, "
+            "95% interval excluding zero), each at 0.05 with no correction; contradicted: "
+            "a comparison resolved against the claim survives Holm's step-down at 0.05 "
+            "over the claim's comparisons."
+        ),
+        "small-n": (
+            f"n < {n6} seeds (small-n rule): no test on so few seeds reaches 0.05, so a "
+            "comparison is resolved when every seed agrees in direction and its 95% "
+            "interval excludes zero (p = 2/2^n, 0.25 at n = 3), weaker than 5% "
+            "significance; supported: all resolved in favour; contradicted: one resolved "
+            f"against, no correction; fewer than {MIN_SEEDS} seeds never resolve."
+        ),
+    }
+
+
+def seeds_note() -> str:
+    """What the seeds-needed column means, in one sentence."""
     return (
-        f"supported: every comparison the claim needs is resolved in its favour; "
-        f"contradicted: one is resolved against it; inconclusive: otherwise (fewer than "
-        f"{MIN_SEEDS} seeds, an interval spanning zero, or seeds that disagree). "
-        f"Resolved: {rule_text()}. 'Not worse than' needs every 95% interval above "
-        f"-{MARGIN_PP:g} pp."
+        f"Seeds needed (80% power): the fewest seeds (at least {seeds_for_level()}, the "
+        "fewest at which the sign-flip test can reach 0.05) at which a two-sided paired "
+        "t-test at 0.05 has 80% power for the observed effect mean(d)/sd(d), for the "
+        "comparison the claim needs that needs the most ('not worse than': "
+        f"(mean(d) + {MARGIN_PP:g} pp)/sd(d)); >100: more than 100; -: a needed comparison "
+        "shows no effect (or has fewer than 2 seeds)."
+    )
+
+
+def claims_rule_text() -> str:
+    """The verdict rules in one paragraph (the claims table quotes them)."""
+    notes = rule_notes()
+    return (
+        f"{notes['5%']} {notes['small-n']} Inconclusive: otherwise. Resolved: {rule_text()}. "
+        f"'Not worse than' needs every 95% interval above -{MARGIN_PP:g} pp."
     )
 
 
 def render_claims_markdown(frame: pd.DataFrame, dataset: str | None = None) -> str:
-    """Markdown of a claims frame: claim, evidence, verdict, and the rule once."""
+    """Markdown of a claims frame: claim, verdict marked with its rule, reason, seeds
+    needed, evidence; a footnote per rule the table uses, then the seeds-needed note."""
     name = dataset or (frame["dataset"].iloc[0] if not frame.empty else "")
     lines = [f"**The paper's claims checked on {name}.**", ""]
     if frame.empty:
-        lines.append("No claim's experiment is configured for this dataset.")
-    else:
-        lines += ["| Claim | Verdict | Why | Evidence |", "|:---|:---|:---|:---|"]
-        for _, row in frame.iterrows():
-            cells = [row["claim"], f"**{row['verdict']}**", row["reason"], row["evidence"]]
-            lines.append("| " + " | ".join(str(c).replace("|", r"\|") for c in cells) + " |")
-    lines += ["", f"*Rule: {claims_rule_text()}*"]
+        return "\n".join([*lines, "No claim's experiment is configured for this dataset."]) + "\n"
+    lines += [
+        "| Claim | Verdict | Why | Seeds needed (80% power) | Evidence |",
+        "|:---|:---|:---|---:|:---|",
+    ]
+    for _, row in frame.iterrows():
+        verdict = f"**{row['verdict']}**{_MARKS.get(row['rule'], '')}"
+        cells = [row["claim"], verdict, row["reason"], row["seeds_needed"], row["evidence"]]
+        lines.append("| " + " | ".join(str(c).replace("|", r"\|") for c in cells) + " |")
+    notes = rule_notes()
+    for rule in [r for r in _MARKS if r in set(frame["rule"])]:
+        lines += ["", f"{_MARKS[rule]} {notes[rule]}"]
+    lines += [
+        "",
+        f"Inconclusive: neither. Resolved: {rule_text()}. 'Not worse than' needs every 95% "
+        f"interval above -{MARGIN_PP:g} pp.",
+        "",
+        seeds_note(),
+    ]
     return "\n".join(lines) + "\n"

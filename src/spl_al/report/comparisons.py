@@ -7,8 +7,9 @@ parameter at its round. One row per (point, pair of methods), in percentage poin
 (metric x 100); ``tables/comparisons.csv`` is this frame and the claims read it.
 
 Columns: experiment, point, parameter, round, n_labeled, method_a, method_b, value_a,
-value_b, n, mean_a, mean_b, diff (mean of A - B over paired seeds), ci_low, ci_high,
-p_value, p_min, resolved, direction, dataset, metric, scale, synthetic_standin.
+value_b, n, mean_a, mean_b, diff (mean of A - B over paired seeds), sd_diff (sd of the
+paired differences), ci_low, ci_high, p_value, p_min, rule ("5%" from 6 seeds, else
+"small-n"), resolved, direction, dataset, metric, scale, synthetic_standin.
 """
 
 from __future__ import annotations
@@ -36,10 +37,12 @@ COLUMNS = (
     "mean_a",
     "mean_b",
     "diff",
+    "sd_diff",
     "ci_low",
     "ci_high",
     "p_value",
     "p_min",
+    "rule",
     "resolved",
     "direction",
     "dataset",
@@ -47,7 +50,7 @@ COLUMNS = (
     "scale",
     "synthetic_standin",
 )
-_SCALED = ("mean_a", "mean_b", "diff", "ci_low", "ci_high")
+_SCALED = ("mean_a", "mean_b", "diff", "sd_diff", "ci_low", "ci_high")
 
 
 def _values(d: pd.DataFrame, methods, round_: int, value_col: str = "value") -> pd.DataFrame:
@@ -205,9 +208,10 @@ def render_comparisons_markdown(frame: pd.DataFrame) -> str:
             names = f"{method_label(row['method_a'])} − {method_label(row['method_b'])}"
             if row["experiment"] == "sensitivity":
                 names = f"{row['value_a']} − {row['value_b']}"
-            verdict = (
-                ("A better" if row["direction"] > 0 else "B better") if row["resolved"] else "no"
-            )
+            verdict = "no"
+            if row["resolved"]:
+                verdict = "A better" if row["direction"] > 0 else "B better"
+                verdict += f" ({row['rule']} rule)"
             lines.append(
                 f"| {row['point']} | {names} | {int(row['n'])} | {_num(row['diff'])} "
                 f"[{_num(row['ci_low'])}, {_num(row['ci_high'])}] | "

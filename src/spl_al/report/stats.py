@@ -1,4 +1,4 @@
-"""Paired statistics over seeds: exact sign-flip test, t-interval, AUBC, the decision rule.
+"""Paired statistics over seeds: sign-flip test, t-interval, rule, Holm, power, AUBC.
 
 Every method at a seed starts from the same round-0 set and the same training seeds,
 so two methods are compared *per seed*: d_s = x_A,s - x_B,s over the seeds both have.
@@ -6,18 +6,39 @@ so two methods are compared *per seed*: d_s = x_A,s - x_B,s over the seeds both 
 - **Test**: the exact two-sided sign-flip (paired permutation) test of "mean d = 0".
   Under the null each d_s is as likely to be +|d_s| as -|d_s|; the p-value is the share
   of all 2^n sign vectors whose |mean| is at least the observed one. It needs no
-  normality, which n = 3 seeds cannot check. Its smallest attainable p is 2 / 2^n
+  normality, which a handful of seeds cannot check. Its smallest attainable p is 2 / 2^n
   (0.25 at n = 3, 0.0625 at n = 5, 0.03125 at n = 6), reached exactly when every seed
   agrees in direction.
 - **Interval**: the 95% t-interval of the mean paired difference,
   mean(d) +- t_{0.975, n-1} sd(d) / sqrt(n). It is the interval a reader expects and
   it widens honestly with few seeds (t_{0.975, 2} = 4.30); it leans on normality of d.
-- **Rule** (``resolved``): a difference is resolved when n >= ``MIN_SEEDS`` (3), the
-  t-interval excludes zero, and the sign-flip p is <= max(``LEVEL``, 2 / 2^n). From
-  n = 6 seeds that is p <= 0.05 (significance at 5%); below, where no test on n seeds
-  can reach 0.05, it asks for the strongest evidence n seeds can give: every seed
-  agrees in direction *and* the interval excludes zero. A result resolved with n < 6
-  is therefore weaker than 5% significance, and tables and claims say so.
+- **Rule** (``resolved``): the t-interval excludes zero *and* the sign-flip p is
+  significant, with one of two bars (``rule_name`` says which applies):
+
+  - "5%" rule, n >= ``seeds_for_level()`` = 6 seeds: p <= ``LEVEL`` (0.05), i.e.
+    significance at 5%;
+  - "small-n" rule, ``MIN_SEEDS`` (3) <= n < 6: no test on n seeds can reach 0.05, so
+    the bar is the strongest evidence n seeds can give, p = 2 / 2^n: every seed agrees
+    in direction. A result resolved this way is weaker than 5% significance, and
+    tables and claims say so. Fewer than 3 seeds never resolve.
+
+- **Holm** (``holm``): step-down adjusted p-values of a family of m tests. With
+  p_(1) <= ... <= p_(m) sorted, p~_(i) = min(1, max_{j <= i} (m - j + 1) p_(j));
+  rejecting p~ <= 0.05 controls the family-wise error at 5%. The claims use it for
+  "contradicted" (one comparison against, out of many).
+- **Power** (``seeds_needed``): how many seeds a paired difference with mean delta and
+  sd sigma would need to be resolved at 5%: the smallest n >= 6 (the fewest seeds whose
+  sign-flip test can reach 0.05) whose two-sided paired t-test at 0.05 has power >= 80%,
+  power(n) = 1 - F(c; n - 1, lambda) + F(-c; n - 1, lambda) with c = t_{0.975, n-1},
+  lambda = sqrt(n) |delta| / sigma and F the noncentral t CDF (``scipy.stats.nct``).
+  Capped at ``MAX_SEEDS_NEEDED`` (100; more is reported as ">100"); a zero or undefined
+  effect (delta = 0, or sigma undefined with fewer than 2 seeds) has none ("-"). The t
+  test stands in for the sign-flip test, whose discrete p-values make it somewhat less
+  powerful at the smallest n (at n = 6 it needs every seed to agree), and the observed
+  delta and sigma are themselves noisy: the number is a guide (no effect vs. too few
+  seeds), not a guarantee.
+- **AUBC** (``curve_area``, ``aubc``): area under a budget curve over its ratio span,
+  trapz(values, ratio) / (ratio_max - ratio_min); ``summary`` imports it from here.
 """
 
 from __future__ import annotations
@@ -26,6 +47,7 @@ import math
 
 import numpy as np
 import pandas as pd
+from scipy.stats import nct
 from scipy.stats import t as student_t
 
 LEVEL = 0.05
@@ -33,6 +55,12 @@ LEVEL = 0.05
 
 MIN_SEEDS = 3
 """Fewest paired seeds for any difference to count as resolved."""
+
+POWER = 0.8
+"""Target power of ``seeds_needed``."""
+
+MAX_SEEDS_NEEDED = 100
+"""``seeds_needed`` searches n up to this; beyond, the effect is reported as ">100"."""
 
 MAX_EXACT_SEEDS = 20
 """The sign-flip test enumerates 2^n sign vectors; beyond this it would be slow."""
@@ -81,12 +109,26 @@ def t_interval(d, level: float = LEVEL) -> tuple[float, float]:
     return float(d.mean() - half), float(d.mean() + half)
 
 
+def rule_name(n: int, level: float = LEVEL) -> str:
+    """Which resolution rule applies at n paired seeds: "5%" (n >= 6 for 0.05) or "small-n"."""
+    return f"{100 * level:g}%" if n >= seeds_for_level(level) else "small-n"
+
+
+def significant(p: float, n: int, level: float = LEVEL) -> bool:
+    """The sign-flip bar of the rule: p <= level from n >= 6 seeds (for 0.05), else
+    p <= 2 / 2^n (every seed agrees); never with fewer than ``MIN_SEEDS`` seeds."""
+    bar = level if n >= seeds_for_level(level) else min_p_value(n)
+    return bool(n >= MIN_SEEDS and p <= bar * (1 + _TIE_RTOL))
+
+
 def paired_test(a, b, level: float = LEVEL) -> dict:
     """Paired comparison of A and B over the seeds where both have a finite value.
 
     ``a``, ``b``: (n,) values of the same seeds in the same order (NaN = missing).
-    Returns n, mean_a, mean_b, diff (mean of a - b), ci_low, ci_high, p_value, p_min,
-    resolved (the module's rule) and direction (+1 A better, -1 B better, 0 unresolved).
+    Returns n, mean_a, mean_b, diff (mean of d = a - b), sd_diff (sd of d, ddof 1),
+    ci_low, ci_high, p_value, p_min, rule (``rule_name``), resolved (``significant``
+    and an interval that excludes zero) and direction (+1 A better, -1 B better, 0
+    unresolved).
     """
     a = np.asarray(a, dtype=float).ravel()
     b = np.asarray(b, dtype=float).ravel()
@@ -98,20 +140,19 @@ def paired_test(a, b, level: float = LEVEL) -> dict:
     n = int(d.size)
     low, high = t_interval(d, level)
     p = sign_flip_p(d)
-    p_min = min_p_value(n)
-    resolved = bool(
-        n >= MIN_SEEDS and p <= max(level, p_min) * (1 + _TIE_RTOL) and (low > 0 or high < 0)
-    )
+    resolved = significant(p, n, level) and bool(low > 0 or high < 0)
     mean = float(d.mean()) if n else math.nan
     return {
         "n": n,
         "mean_a": float(a.mean()) if n else math.nan,
         "mean_b": float(b.mean()) if n else math.nan,
         "diff": mean,
+        "sd_diff": float(d.std(ddof=1)) if n > 1 else math.nan,
         "ci_low": low,
         "ci_high": high,
         "p_value": p,
-        "p_min": p_min,
+        "p_min": min_p_value(n),
+        "rule": rule_name(n, level),
         "resolved": resolved,
         "direction": int(np.sign(mean)) if resolved else 0,
     }
@@ -121,25 +162,106 @@ def rule_text(level: float = LEVEL) -> str:
     """The decision rule in one sentence (tables, claims and the README quote it)."""
     n6 = seeds_for_level(level)
     return (
-        f"a paired difference is resolved when at least {MIN_SEEDS} seeds pair up, its "
-        f"{100 * (1 - level):.0f}% t-interval excludes zero and its exact sign-flip p is "
-        f"<= max({level:g}, 2/2^n); below n = {n6} seeds (smallest p = 2/2^n, 0.25 at n = 3) "
-        "that means every seed agrees in direction, weaker than significance at "
-        f"{level:g}"
+        f"a paired difference is resolved when its {100 * (1 - level):.0f}% t-interval "
+        f"excludes zero and its exact sign-flip p is significant: from n = {n6} seeds "
+        f"p <= {level:g} (significance at {100 * level:g}%); with {MIN_SEEDS} to {n6 - 1} "
+        f"seeds, where no test can reach {level:g}, p = 2/2^n (0.25 at n = 3), i.e. every "
+        f"seed agrees in direction, weaker than significance at {level:g}; fewer than "
+        f"{MIN_SEEDS} seeds never resolve"
     )
+
+
+# ---------------------------------------------------------------- many tests, power
+
+
+def holm(p) -> np.ndarray:
+    """Holm's step-down adjusted p-values, in the input order.
+
+    With the m p-values sorted, p_(1) <= ... <= p_(m):
+    p~_(i) = min(1, max_{j <= i} (m - j + 1) p_(j)). A NaN counts in m and stays NaN.
+    """
+    p = np.asarray(p, dtype=float).ravel()
+    m = p.size
+    filled = np.where(np.isnan(p), 1.0, p)
+    order = np.argsort(filled, kind="stable")
+    adjusted = np.minimum(1.0, np.maximum.accumulate((m - np.arange(m)) * filled[order]))
+    out = np.empty(m)
+    out[order] = adjusted
+    out[np.isnan(p)] = math.nan
+    return out
+
+
+def t_power(n, effect: float, level: float = LEVEL) -> np.ndarray:
+    """Power of the two-sided paired t-test at ``level`` on n pairs (array-like).
+
+    ``effect`` = delta / sigma. power = 1 - F(c; n-1, lam) + F(-c; n-1, lam) with
+    c = t_{1-level/2, n-1}, lam = sqrt(n) |effect| and F the noncentral t CDF.
+    """
+    n = np.asarray(n, dtype=float)
+    c = student_t.ppf(1 - level / 2, n - 1)
+    lam = np.sqrt(n) * abs(effect)
+    return 1 - nct.cdf(c, n - 1, lam) + nct.cdf(-c, n - 1, lam)
+
+
+def seeds_needed(
+    diff: float,
+    sd: float,
+    level: float = LEVEL,
+    power: float = POWER,
+    cap: int = MAX_SEEDS_NEEDED,
+) -> float:
+    """Seeds a paired difference (mean ``diff``, sd ``sd``) needs to be resolved at ``level``.
+
+    The smallest n in [seeds_for_level(level), cap] with ``t_power(n, diff / sd)`` >=
+    ``power``; ``math.inf`` when no n up to ``cap`` is enough; NaN when the effect is
+    zero or undefined (diff 0 or NaN, sd NaN). sd = 0 with diff != 0 gives the floor.
+    """
+    floor = seeds_for_level(level)
+    if not (math.isfinite(diff) and math.isfinite(sd)) or diff == 0:
+        return math.nan
+    if sd == 0:
+        return float(floor)
+    ns = np.arange(floor, max(floor, cap) + 1)
+    enough = t_power(ns, diff / sd, level) >= power
+    return float(ns[np.argmax(enough)]) if enough.any() else math.inf
+
+
+def format_seeds_needed(n: float, cap: int = MAX_SEEDS_NEEDED) -> str:
+    """``seeds_needed`` for a table: "12", ">100" above the cap, "-" for no effect."""
+    if math.isnan(n):
+        return "-"
+    return f">{cap}" if math.isinf(n) else str(int(n))
 
 
 # ---------------------------------------------------------------- AUBC
 
 
-def aubc(ratio, values) -> float:
-    """Area under one budget curve normalised to the budget range (a mean metric).
+def curve_area(ratio, mean) -> float:
+    """Normalised area under a budget curve, a mean metric over the ratio span.
 
-    trapz(values, ratio) / (ratio_max - ratio_min), ratios sorted ascending; one point
-    gives its own value. Same as ``spl_al.report.summary.curve_area``.
+    AUC = trapz(mean, ratio) / (ratio[-1] - ratio[0]) with ratios sorted ascending;
+    a single point (zero span) gives its own value. ``ratio``, ``mean``: (R,) arrays.
     """
-    from spl_al.report.summary import curve_area
+    ratio = np.asarray(ratio, dtype=float)
+    mean = np.asarray(mean, dtype=float)
+    if ratio.shape != mean.shape or ratio.ndim != 1 or ratio.size == 0:
+        raise ValueError(
+            f"ratio and mean must be 1-D arrays of one equal, non-zero length; "
+            f"got shapes {ratio.shape} and {mean.shape}."
+        )
+    order = np.argsort(ratio, kind="stable")
+    ratio, mean = ratio[order], mean[order]
+    span = ratio[-1] - ratio[0]
+    if span <= 0:
+        return float(mean.mean())
+    # Trapezoid rule written out: np.trapezoid needs numpy >= 2, the project allows 1.26.
+    area = np.sum(0.5 * (mean[1:] + mean[:-1]) * np.diff(ratio))
+    return float(area / span)
 
+
+def aubc(ratio, values) -> float:
+    """Area under one seed's budget curve normalised to the budget range (a mean metric):
+    ``curve_area`` of that seed's values."""
     return curve_area(ratio, values)
 
 

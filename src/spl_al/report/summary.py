@@ -4,36 +4,12 @@ from __future__ import annotations
 
 import math
 
-import numpy as np
 import pandas as pd
 
 from spl_al.report.aggregate import method_curves
 from spl_al.report.display import ordered_methods
 from spl_al.report.records import one_dataset
-from spl_al.report.stats import aubc_per_seed, mean_interval
-
-
-def curve_area(ratio, mean) -> float:
-    """Normalised area under a budget curve, a mean metric over the ratio span.
-
-    AUC = trapz(mean, ratio) / (ratio[-1] - ratio[0]) with ratios sorted ascending;
-    a single point (zero span) gives its own value. ``ratio``, ``mean``: (R,) arrays.
-    """
-    ratio = np.asarray(ratio, dtype=float)
-    mean = np.asarray(mean, dtype=float)
-    if ratio.shape != mean.shape or ratio.ndim != 1 or ratio.size == 0:
-        raise ValueError(
-            f"ratio and mean must be 1-D arrays of one equal, non-zero length; "
-            f"got shapes {ratio.shape} and {mean.shape}."
-        )
-    order = np.argsort(ratio, kind="stable")
-    ratio, mean = ratio[order], mean[order]
-    span = ratio[-1] - ratio[0]
-    if span <= 0:
-        return float(mean.mean())
-    # Trapezoid rule written out: np.trapezoid needs numpy >= 2, the project allows 1.26.
-    area = np.sum(0.5 * (mean[1:] + mean[:-1]) * np.diff(ratio))
-    return float(area / span)
+from spl_al.report.stats import aubc_per_seed, curve_area, mean_interval
 
 
 def _num(x) -> float | None:
