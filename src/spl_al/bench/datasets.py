@@ -92,6 +92,7 @@ def _rows(name: str, dataset_fn, n_variants: int, workers: int, folder: Path) ->
 
 
 def main(argv: list[str]) -> int:
+    """Time dataset generation, variants and saving; print the table; the exit code."""
     parser = argparse.ArgumentParser(prog="python -m spl_al.bench datasets")
     parser.add_argument("--n-per-class", type=int, default=100)
     parser.add_argument("--n-variants", type=int, default=4)

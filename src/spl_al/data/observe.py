@@ -58,6 +58,7 @@ def check_levels(levels: Mapping) -> dict[str, object]:
 
 
 def check_sbr_values(sbr_values) -> list[float]:
+    """Validate signal-to-background ratios: one or more values > 0, as floats."""
     values = [float(v) for v in np.atleast_1d(sbr_values)]
     if not values or any(not v > 0 for v in values):
         raise ValueError(f"sbr_values must be one or more values > 0, got {sbr_values!r}.")
@@ -85,6 +86,7 @@ def assign_conditions(
     Args:
         groups: (N,) int group of each sample (its class, or 0 for segmentation).
         split: (N,) str split of each sample.
+
     Returns:
         msppp (N,) float64, sbr (N,) float64, level (N,) str.
     """
@@ -261,6 +263,7 @@ def observe(
         workers: processes (None = all cores; the result does not depend on it).
         **imaging: ``method`` (default "pooled"), ``model`` and ``range_compensated``
             of ``Imaging`` (None model: Algorithm 1).
+
     Returns:
         depth (N, H, W) float32 NaN at voids, reflectivity (N, H, W) float32.
     """
