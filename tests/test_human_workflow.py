@@ -16,7 +16,10 @@ import pytest
 from spl_al.data import Dataset
 
 ROOT = Path(__file__).resolve().parents[1]
-pytestmark = pytest.mark.skipif(shutil.which("snakemake") is None, reason="snakemake not installed")
+pytestmark = [
+    pytest.mark.slow,
+    pytest.mark.skipif(shutil.which("snakemake") is None, reason="snakemake not installed"),
+]
 
 DATASET = """
     task: classification

@@ -18,7 +18,10 @@ from spl_al.data import load_folder
 from spl_al.data.digits import write_digits_folder
 
 ROOT = Path(__file__).resolve().parents[1]
-pytestmark = pytest.mark.skipif(shutil.which("snakemake") is None, reason="snakemake not installed")
+pytestmark = [
+    pytest.mark.slow,
+    pytest.mark.skipif(shutil.which("snakemake") is None, reason="snakemake not installed"),
+]
 
 
 @pytest.fixture(scope="module")

@@ -14,7 +14,10 @@ import yaml
 from spl_al.config import drop_removed
 
 ROOT = Path(__file__).resolve().parents[1]
-pytestmark = pytest.mark.skipif(shutil.which("snakemake") is None, reason="snakemake not installed")
+pytestmark = [
+    pytest.mark.slow,
+    pytest.mark.skipif(shutil.which("snakemake") is None, reason="snakemake not installed"),
+]
 
 
 def snakemake(*args, cwd=ROOT):

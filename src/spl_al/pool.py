@@ -104,14 +104,17 @@ class Pool:
 
     @property
     def labeled_mask(self) -> np.ndarray:
+        """(n_train,) bool, True at labeled pool indices (a copy)."""
         return self._mask.copy()
 
     @property
     def n_labeled(self) -> int:
+        """Number of labeled training samples."""
         return len(self._order)
 
     @property
     def n_unlabeled(self) -> int:
+        """Number of training samples not yet labeled."""
         return self.n_train - self.n_labeled
 
 
@@ -132,6 +135,7 @@ class Oracle:
 
     @property
     def n_train(self) -> int:
+        """Number of training samples in the pool."""
         return len(self._labels)
 
     def query(self, indices) -> np.ndarray:

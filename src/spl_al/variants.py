@@ -84,6 +84,7 @@ class VariantShard:
 
     @classmethod
     def load(cls, path) -> VariantShard:
+        """Read a shard written by ``save``."""
         arrays, meta = storage.read_npz(path, SHARD_FORMAT)
         return cls(
             arrays["indices"],

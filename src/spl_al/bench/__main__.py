@@ -10,12 +10,14 @@ import spl_al.bench
 
 
 def available() -> list[str]:
+    """Names of the benchmarks ``python -m spl_al.bench NAME`` runs."""
     return sorted(
         m.name for m in pkgutil.iter_modules(spl_al.bench.__path__) if not m.name.startswith("_")
     )
 
 
 def main(argv: list[str]) -> int:
+    """Run the benchmark named by ``argv[0]`` with the rest of ``argv``; the exit code."""
     names = available()
     if not argv or argv[0] in ("-h", "--help"):
         print(f"usage: python -m spl_al.bench NAME [options]; NAME is one of {', '.join(names)}")

@@ -92,6 +92,7 @@ def _rows(name: str, dataset_fn, n_variants: int, workers: int, folder: Path) ->
 
 
 def main(argv: list[str]) -> int:
+    """Time dataset generation, variants and saving; print the table; the exit code."""
     parser = argparse.ArgumentParser(prog="python -m spl_al.bench datasets")
     parser.add_argument("--n-per-class", type=int, default=100)
     parser.add_argument("--n-variants", type=int, default=4)
@@ -103,27 +104,27 @@ def main(argv: list[str]) -> int:
     args = parser.parse_args(argv)
     workers = default_workers() if args.workers is None else args.workers
 
-    rows = []
-    with tempfile.TemporaryDirectory() as tmp:
-        rows += _rows(
+    makers = [
+        (
             "classification",
             lambda: make_classification_dataset(
                 n_per_class=args.n_per_class, seed=args.seed, workers=workers
             ),
-            args.n_variants,
-            workers,
-            Path(tmp),
         )
-        if args.segmentation:
-            rows += _rows(
+    ]
+    if args.segmentation:
+        makers.append(
+            (
                 "segmentation",
                 lambda: make_segmentation_dataset(
                     n_samples=args.segmentation, seed=args.seed, workers=workers
                 ),
-                args.n_variants,
-                workers,
-                Path(tmp),
             )
+        )
+    rows = []
+    with tempfile.TemporaryDirectory() as tmp:
+        for name, make in makers:
+            rows += _rows(name, make, args.n_variants, workers, Path(tmp))
     print(
         f"Dataset generation on {workers} worker process(es), {os.cpu_count()} CPUs "
         f"({platform.machine()}); pooled ML reconstruction, MSPPP 10/5/2, SBR 0.2/1/5"

@@ -186,6 +186,7 @@ def _cell(values: list[float]) -> str:
 
 
 def table_rows(name: str, rows: list[dict]) -> list[list[str]]:
+    """Markdown table rows of one dataset's learnability ``rows``."""
     return [
         [
             name,
@@ -246,6 +247,7 @@ def recipe_overrides(items: list[str]) -> dict:
 
 
 def main(argv: list[str] | None = None) -> int:
+    """Run the learnability benchmark on ``argv``'s datasets; print its tables; the exit code."""
     parser = argparse.ArgumentParser(prog="python -m spl_al.bench learnability")
     parser.add_argument("datasets", nargs="*", type=Path, help="dataset .npz files (with variants)")
     parser.add_argument("--config", type=Path, default=Path("config/config.yaml"))

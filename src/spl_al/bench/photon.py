@@ -28,6 +28,7 @@ CONDITIONS = ((2.0, 0.2), (5.0, 1.0), (10.0, 5.0))
 
 
 def main(argv: list[str]) -> int:
+    """Time simulation and every reconstruction method; print the table; the exit code."""
     parser = argparse.ArgumentParser(prog="python -m spl_al.bench photon")
     parser.add_argument("--repeats", type=int, default=15)
     parser.add_argument("--sspi-weights", default=os.environ.get("SPL_AL_SSPI_WEIGHTS"))

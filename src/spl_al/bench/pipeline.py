@@ -31,6 +31,7 @@ _RULE_OF = (
 
 
 def rule_of(stem: str) -> str:
+    """The Snakemake rule a benchmark file's ``stem`` belongs to."""
     for pattern, rule in _RULE_OF:
         if pattern.search(stem):
             return rule
@@ -53,6 +54,7 @@ def job_times(results: Path):
 
 
 def main(argv: list[str]) -> int:
+    """Summarise a run's per-rule benchmark files; print the table; the exit code."""
     parser = argparse.ArgumentParser(prog="python -m spl_al.bench pipeline")
     parser.add_argument("results", type=Path, help="the run's results folder")
     parser.add_argument("--wall", type=float, required=True, help="the run's wall time, s")

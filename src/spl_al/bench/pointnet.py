@@ -117,6 +117,7 @@ def _in_fresh_process(fn, *args):
 
 
 def main(argv: list[str]) -> int:
+    """Time the point-cloud segmenter's training steps; print the table; the exit code."""
     parser = argparse.ArgumentParser(prog="python -m spl_al.bench pointnet", description=__doc__)
     parser.add_argument("--threads", default="1,2", help="CPU thread counts, comma-separated")
     parser.add_argument("--steps", type=int, default=3, help="timed training steps per case")

@@ -83,6 +83,8 @@ def sspi_frame_cost(events, sensor, weights=None, repeats: int = 3):
 
 
 def real_table(captures: Path, weights) -> str:
+    """Markdown table of SSPI against pooled ML on each real ``.mat`` capture
+    (voids, agreement, time)."""
     sensor = SensorParams.ugv45m()
     rows = []
     for path in sorted(captures.glob("*.mat")):
@@ -122,6 +124,8 @@ def real_table(captures: Path, weights) -> str:
 
 
 def simulated_table(weights, msppp=MSPPP, sbr=SBR, seed: int = 0) -> str:
+    """Markdown table of SSPI against the ML methods on the simulated demo scene
+    at each MSPPP (signal photons per pixel) and SBR."""
     sensor = SensorParams.tabletop()
     depth, refl = demo_scene(64, 64)
     rows = []
@@ -155,6 +159,7 @@ def simulated_table(weights, msppp=MSPPP, sbr=SBR, seed: int = 0) -> str:
 
 
 def main(argv: list[str]) -> int:
+    """Compare SSPI with the ML reconstructions; print the tables; the exit code."""
     parser = argparse.ArgumentParser(prog="python -m spl_al.bench sspi")
     parser.add_argument("--weights", default=None, help="default $SPL_AL_SSPI_WEIGHTS")
     parser.add_argument("--captures", default=os.environ.get("SPL_AL_REAL_CAPTURES"))

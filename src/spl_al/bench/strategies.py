@@ -99,6 +99,7 @@ def synthetic_pool(
 
 
 def bench_strategies(args) -> list[list[str]]:
+    """Table rows of each strategy's selection time on a synthetic pool."""
     inputs, group_probs = synthetic_pool(args.pool, args.dim, args.classes, args.m, args.labeled)
 
     def duis() -> None:
@@ -175,6 +176,8 @@ def _throughput(task: str, arch: str, shape: tuple[int, int], batch: int, steps:
 
 
 def bench_training(threads: list[int]) -> tuple[list[list[str]], float]:
+    """Table rows of training throughput per model and torch thread count, and the
+    machine's matmul GFLOP/s they are compared with."""
     import torch
 
     default_cls = {"input_pool": 2, "first_stride": 1, "dropout": 0.5}  # config/config.yaml
@@ -233,6 +236,7 @@ def _table(header: list[str], rows: list[list[str]]) -> str:
 
 
 def main(argv: list[str]) -> int:
+    """Time the strategies and a training step; print the tables; the exit code."""
     parser = argparse.ArgumentParser(prog="python -m spl_al.bench strategies", description=__doc__)
     parser.add_argument("--pool", type=int, default=20_000, help="unlabeled groups")
     parser.add_argument("--dim", type=int, default=512, help="feature dimension d")

@@ -160,6 +160,7 @@ def run(args: argparse.Namespace) -> str:
 
 
 def main(argv: list[str] | None = None) -> int:
+    """Run the ``python -m spl_al.data`` command of ``argv``; the exit code."""
     args = _parser().parse_args(argv)
     try:
         print(run(args))

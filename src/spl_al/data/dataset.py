@@ -76,10 +76,12 @@ SCENE_FIELDS = ("clean_depth_m", "reflectance", "clean_reflectance", "object_mas
 
 
 def sensor_to_dict(sensor: SensorParams | None) -> dict | None:
+    """A JSON-ready dict of ``sensor``'s fields (None stays None)."""
     return None if sensor is None else dataclasses.asdict(sensor)
 
 
 def sensor_from_dict(d: dict | None) -> SensorParams | None:
+    """The ``SensorParams`` of a ``sensor_to_dict`` dict (None stays None)."""
     return None if d is None else SensorParams(**d)
 
 
@@ -242,10 +244,12 @@ class Dataset:
 
     @property
     def image_shape(self) -> tuple[int, int]:
+        """(H, W) of every image."""
         return (int(self.depth_m.shape[1]), int(self.depth_m.shape[2]))
 
     @property
     def n_variants(self) -> int:
+        """Variants per sample (M); 0 before ``spl_al.variants`` adds them."""
         return 0 if self.variant_depth_m is None else int(self.variant_depth_m.shape[1])
 
     @property
@@ -255,10 +259,12 @@ class Dataset:
 
     @property
     def train_idx(self) -> np.ndarray:
+        """Indices of the training split's samples, ascending."""
         return np.flatnonzero(self.split == "train")
 
     @property
     def test_idx(self) -> np.ndarray:
+        """Indices of the test split's samples, ascending."""
         return np.flatnonzero(self.split == "test")
 
     def level_idx(self, level: str, split: str | None = "test") -> np.ndarray:

@@ -36,6 +36,7 @@ import re
 import warnings
 import zipfile
 from collections import Counter
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
@@ -259,100 +260,171 @@ def _discover(root: Path, label_key) -> tuple[str, list[tuple[Path, str, Path | 
     )
 
 
-def load_folder(
-    root,
-    depth_key: str = "depth_ssp",
-    label_key: str | None = None,
-    clean_key: str | None = "Z_true",
-    reflectance_key: str | None = None,
-    classes=None,
-    image_shape=None,
-    depth_scale: float = 1.0,
-    test_fraction: float = 0.3,
-    seed: int = 0,
-    sensor: SensorParams | None = None,
-    levels_file=None,
-    n_per_class: int | None = None,
-) -> Dataset:
+@dataclass(frozen=True)
+class FolderOptions:
+    """How ``load_folder`` reads a folder; every field a keyword of ``load_folder``.
+
+    depth_key: array of the observed (SPL-reconstructed) depth in each ``.npz``.
+    label_key: per-pixel label array in each ``.npz``: makes it a segmentation
+        dataset (values < len(classes), 255 = ignore).
+    clean_key: ground-truth depth in each ``.npz`` (kept as ``clean_depth_m``
+        when every file has it); None to skip.
+    reflectance_key: reflectivity array (SIV input); absent = uniform reflectance.
+    classes: class names in label order. Classification: default the sorted
+        names found (a name not in ``classes`` is an error). Segmentation:
+        default ``root/classes.txt``, else class_0..class_{K-1}.
+    image_shape: (H, W) to resize every image to (nearest neighbour); None
+        requires all images to share one shape.
+    depth_scale: factor to metres of ``.npz``/``.npy`` depth (PNG is millimetres).
+    test_fraction, seed: stratified split (per class for classification).
+    sensor: SPL timing for variants; None: ``SensorParams.paper_real()``.
+    levels_file: CSV ``file,level[,msppp,sbr]`` assigning every loaded file its
+        MSPPP level (and condition); it overrides levels stored in the files.
+    n_per_class: keep a seeded (``seed``), stratified subset of this many files per
+        class (classification only); None keeps every file.
+    """
+
+    depth_key: str = "depth_ssp"
+    label_key: str | None = None
+    clean_key: str | None = "Z_true"
+    reflectance_key: str | None = None
+    classes: object = None
+    image_shape: object = None
+    depth_scale: float = 1.0
+    test_fraction: float = 0.3
+    seed: int = 0
+    sensor: SensorParams | None = None
+    levels_file: object = None
+    n_per_class: int | None = None
+
+    @property
+    def keys(self) -> dict[str, str | None]:
+        """The array key of each role ("depth", "clean", "reflectance", "labels")."""
+        return {
+            "depth": self.depth_key,
+            "clean": self.clean_key,
+            "reflectance": self.reflectance_key,
+            "labels": self.label_key,
+        }
+
+
+def load_folder(root, **options) -> Dataset:
     """Load a folder of SPL depth images as a Dataset of observed images.
 
     Args:
         root: the folder (layouts in the module docstring).
-        depth_key: array of the observed (SPL-reconstructed) depth in each ``.npz``.
-        label_key: per-pixel label array in each ``.npz``: makes it a segmentation
-            dataset (values < len(classes), 255 = ignore).
-        clean_key: ground-truth depth in each ``.npz`` (kept as ``clean_depth_m``
-            when every file has it); None to skip.
-        reflectance_key: reflectivity array (SIV input); absent = uniform reflectance.
-        classes: class names in label order. Classification: default the sorted
-            names found (a name not in ``classes`` is an error). Segmentation:
-            default ``root/classes.txt``, else class_0..class_{K-1}.
-        image_shape: (H, W) to resize every image to (nearest neighbour); None
-            requires all images to share one shape.
-        depth_scale: factor to metres of ``.npz``/``.npy`` depth (PNG is millimetres).
-        test_fraction, seed: stratified split (per class for classification).
-        sensor: SPL timing for variants; default ``SensorParams.paper_real()``.
-        levels_file: CSV ``file,level[,msppp,sbr]`` assigning every loaded file its
-            MSPPP level (and condition); it overrides levels stored in the files.
-        n_per_class: keep a seeded (``seed``), stratified subset of this many files per
-            class (classification only); None keeps every file.
+        **options: the fields of ``FolderOptions`` (``depth_key``, ``label_key``,
+            ``clean_key``, ``reflectance_key``, ``classes``, ``image_shape``,
+            ``depth_scale``, ``test_fraction``, ``seed``, ``sensor``, ``levels_file``,
+            ``n_per_class``).
 
     Returns:
         Dataset (level "unknown" and NaN conditions unless the files or
         ``levels_file`` give them), with ``meta["load_report"]`` of the pixels made void.
     """
+    return load_folder_with(root, FolderOptions(**options))
+
+
+def load_folder_with(root, opts: FolderOptions) -> Dataset:
+    """``load_folder`` with its options as one ``FolderOptions``."""
     root = Path(root)
-    sensor = SensorParams.paper_real() if sensor is None else sensor
-    if not (np.isfinite(depth_scale) and depth_scale > 0):
-        raise ValueError(f"depth_scale must be > 0, got {depth_scale!r}.")
-    layout, entries = _discover(root, label_key)
-    segmentation = label_key is not None or layout == "segmentation-pairs"
-    if n_per_class is not None:
+    sensor = SensorParams.paper_real() if opts.sensor is None else opts.sensor
+    if not (np.isfinite(opts.depth_scale) and opts.depth_scale > 0):
+        raise ValueError(f"depth_scale must be > 0, got {opts.depth_scale!r}.")
+    layout, entries = _discover(root, opts.label_key)
+    segmentation = opts.label_key is not None or layout == "segmentation-pairs"
+    if opts.n_per_class is not None:
         if segmentation:
             raise ValueError("n_per_class applies to classification folders only.")
-        entries = _subset_per_class(entries, n_per_class, seed, root)
-    keys = {
-        "depth": depth_key,
-        "clean": clean_key,
-        "reflectance": reflectance_key,
-        "labels": label_key,
-    }
-    required = ("depth", "labels") if label_key else ("depth",)
-
-    records = []
-    for path, cls, label_path in entries:
-        arrays = _read_arrays(path, keys, required)
-        rec = {"path": path, "class": cls}
-        scale = 1.0 if path.suffix.lower() == ".png" else depth_scale
-        rec["depth"] = (
-            _as_image(arrays["depth"], path, depth_key if path.suffix == ".npz" else "depth")
-            * scale
-        )
-        for role in ("clean", "reflectance"):
-            if role in arrays:
-                rec[role] = _as_image(arrays[role], path, keys[role]).astype(np.float64) * (
-                    scale if role == "clean" else 1
-                )
-        if label_path is not None:
-            lab = (
-                _read_png_labels(label_path)
-                if label_path.suffix.lower() == ".png"
-                else _read_arrays(label_path, {}, ())["depth"]
-            )
-            rec["labels"] = _as_image(lab, label_path, "labels")
-        elif "labels" in arrays:
-            rec["labels"] = _as_image(arrays["labels"], path, label_key)
-        for scalar in ("msppp", "sbr", "level"):
-            if scalar in arrays:
-                rec[scalar] = arrays[scalar]
-        for role in ("clean", "reflectance", "labels"):
-            if role in rec and rec[role].shape != rec["depth"].shape:
-                raise ValueError(
-                    f"{path}: {role} has shape {rec[role].shape}, depth has {rec['depth'].shape}."
-                )
-        records.append(rec)
-
+        entries = _subset_per_class(entries, opts.n_per_class, opts.seed, root)
+    records = [_read_record(path, cls, label_path, opts) for path, cls, label_path in entries]
     shapes = Counter(r["depth"].shape for r in records)
+    shape = _target_shape(root, records, shapes, opts.image_shape)
+    images, report = _resized_images(root, records, shape, sensor.max_depth_m)
+    _warn_voids(root, report, sensor.max_depth_m)
+    if segmentation:
+        task, classes, labels, groups = _segmentation_targets(root, records, images, opts)
+    else:
+        task, classes, labels, groups = _classification_targets(root, records, opts.classes)
+    msppp, sbr, level = _conditions(root, records, opts.levels_file)
+    n = len(records)
+    has = {role: len(images[role]) == n for role in ("clean", "reflectance")}
+    return Dataset(
+        task=task,
+        classes=classes,
+        depth_m=np.stack(images["depth"]).astype(np.float32),
+        labels=labels,
+        split=stratified_split(groups, opts.test_fraction, sample_rng(opts.seed, STREAM_SPLIT)),
+        msppp=msppp,
+        sbr=sbr,
+        level=level,
+        clean_depth_m=np.stack(images["clean"]).astype(np.float32) if has["clean"] else None,
+        reflectance=(
+            np.stack(images["reflectance"]).astype(np.float32) if has["reflectance"] else None
+        ),
+        sensor=sensor,
+        meta={
+            "source": "external",
+            "root": str(root.resolve()),
+            "layout": layout,
+            "files": [str(r["path"].relative_to(root)) for r in records],
+            "depth_key": opts.depth_key,
+            "clean_key": opts.clean_key if has["clean"] else None,
+            "reflectance_key": opts.reflectance_key if has["reflectance"] else None,
+            "depth_scale": float(opts.depth_scale),
+            "levels_file": None
+            if opts.levels_file is None
+            else str(Path(opts.levels_file).resolve()),
+            "n_per_class": None if opts.n_per_class is None else int(opts.n_per_class),
+            "image_shape": list(shape),
+            "resized_from": {str(list(s)): c for s, c in shapes.items()}
+            if opts.image_shape is not None
+            else None,
+            "seed": int(opts.seed),
+            "test_fraction": float(opts.test_fraction),
+            "sensor": sensor_to_dict(sensor),
+            "load_report": report,
+        },
+    )
+
+
+def _read_record(path: Path, cls: str, label_path: Path | None, opts: FolderOptions) -> dict:
+    """One file's images by role (depth in metres, clean, reflectance, labels), its
+    class and its stored conditions; every image checked to be (H, W) like the depth."""
+    keys = opts.keys
+    required = ("depth", "labels") if opts.label_key else ("depth",)
+    arrays = _read_arrays(path, keys, required)
+    rec = {"path": path, "class": cls}
+    scale = 1.0 if path.suffix.lower() == ".png" else opts.depth_scale
+    what = opts.depth_key if path.suffix == ".npz" else "depth"
+    rec["depth"] = _as_image(arrays["depth"], path, what) * scale
+    for role in ("clean", "reflectance"):
+        if role in arrays:
+            rec[role] = _as_image(arrays[role], path, keys[role]).astype(np.float64) * (
+                scale if role == "clean" else 1
+            )
+    if label_path is not None:
+        lab = (
+            _read_png_labels(label_path)
+            if label_path.suffix.lower() == ".png"
+            else _read_arrays(label_path, {}, ())["depth"]
+        )
+        rec["labels"] = _as_image(lab, label_path, "labels")
+    elif "labels" in arrays:
+        rec["labels"] = _as_image(arrays["labels"], path, opts.label_key)
+    for scalar in ("msppp", "sbr", "level"):
+        if scalar in arrays:
+            rec[scalar] = arrays[scalar]
+    for role in ("clean", "reflectance", "labels"):
+        if role in rec and rec[role].shape != rec["depth"].shape:
+            raise ValueError(
+                f"{path}: {role} has shape {rec[role].shape}, depth has {rec['depth'].shape}."
+            )
+    return rec
+
+
+def _target_shape(root: Path, records, shapes: Counter, image_shape) -> tuple[int, int]:
+    """The (H, W) every image is resized to: ``image_shape``, else the one shape found."""
     if image_shape is None:
         if len(shapes) > 1:
             found = ", ".join(
@@ -363,15 +435,19 @@ def load_folder(
                 f"{root}: images have different shapes: {found}; "
                 "pass image_shape=(H, W) to resize them."
             )
-        shape = next(iter(shapes))
-    else:
-        try:
-            shape = tuple(int(v) for v in image_shape)
-        except (TypeError, ValueError):
-            raise ValueError(f"image_shape must be (H, W), got {image_shape!r}.") from None
-        if len(shape) != 2 or min(shape) < 1:
-            raise ValueError(f"image_shape must be (H, W) with H, W >= 1, got {image_shape!r}.")
+        return next(iter(shapes))
+    try:
+        shape = tuple(int(v) for v in image_shape)
+    except (TypeError, ValueError):
+        raise ValueError(f"image_shape must be (H, W), got {image_shape!r}.") from None
+    if len(shape) != 2 or min(shape) < 1:
+        raise ValueError(f"image_shape must be (H, W) with H, W >= 1, got {image_shape!r}.")
+    return shape
 
+
+def _resized_images(root: Path, records, shape, max_depth_m: float):
+    """({role: [(H, W) image per record that has it]}, report of the depth pixels made
+    void); depth in metres with NaN voids, reflectance 0 where unusable."""
     report = {
         "nonfinite": 0,
         "negative": 0,
@@ -379,69 +455,77 @@ def load_folder(
         "beyond_reach": 0,
         "files_with_bad_pixels": [],
     }
-    depth, clean, refl, labels_img = [], [], [], []
+    images = {"depth": [], "clean": [], "reflectance": [], "labels": []}
     for r in records:
-        d, bad = _clean_depth(r["depth"], sensor.max_depth_m)
+        d, bad = _clean_depth(r["depth"], max_depth_m)
         for k in ("nonfinite", "negative", "zero", "beyond_reach"):
             report[k] += bad[k]
         if bad["nonfinite"] or bad["negative"] or bad["beyond_reach"]:
             report["files_with_bad_pixels"].append(str(r["path"].relative_to(root)))
-        depth.append(_resize_nearest(d, shape))
+        images["depth"].append(_resize_nearest(d, shape))
         if "clean" in r:
-            clean.append(_resize_nearest(_clean_depth(r["clean"], np.inf)[0], shape))
+            images["clean"].append(_resize_nearest(_clean_depth(r["clean"], np.inf)[0], shape))
         if "reflectance" in r:
             rf = np.where(
                 np.isfinite(r["reflectance"]) & (r["reflectance"] > 0), r["reflectance"], 0.0
             )
-            refl.append(_resize_nearest(rf, shape))
+            images["reflectance"].append(_resize_nearest(rf, shape))
         if "labels" in r:
-            labels_img.append(_resize_nearest(r["labels"], shape))
+            images["labels"].append(_resize_nearest(r["labels"], shape))
+    return images, report
+
+
+def _warn_voids(root: Path, report: dict, max_depth_m: float) -> None:
     n_bad = report["nonfinite"] + report["negative"] + report["beyond_reach"]
     if n_bad:
         warnings.warn(
             f"{root}: {report['nonfinite']} NaN/inf, {report['negative']} negative and "
-            f"{report['beyond_reach']} beyond-reach ({sensor.max_depth_m:.0f} m) depth pixels in "
+            f"{report['beyond_reach']} beyond-reach ({max_depth_m:.0f} m) depth pixels in "
             f"{len(report['files_with_bad_pixels'])} files were made voids "
             f"(e.g. {report['files_with_bad_pixels'][0]}).",
-            stacklevel=2,
+            stacklevel=4,  # the caller of load_folder
         )
 
-    n = len(records)
-    depth = np.stack(depth).astype(np.float32)
-    if segmentation:
-        if len(labels_img) != n:
-            raise ValueError(
-                f"{root}: segmentation needs labels for every image; "
-                f"{n - len(labels_img)} have none."
-            )
-        labels = _segmentation_labels(np.stack(labels_img), records, root)
-        classes = _segmentation_classes(classes, root, labels)
-        bad = (labels != IGNORE_INDEX) & (labels >= len(classes))
-        if bad.any():
-            raise ValueError(
-                f"{root}: labels hold values {np.unique(labels[bad])[:5].tolist()} "
-                f">= {len(classes)} classes."
-            )
-        groups = np.zeros(n, np.int64)
-        task = "segmentation"
-    else:
-        found = sorted({r["class"] for r in records})
-        if classes is None:
-            classes = found
-        else:
-            classes = [str(c) for c in classes]
-            unknown = sorted(set(found) - set(classes))
-            if unknown:
-                raise ValueError(
-                    f"{root}: files of classes {unknown} are not in classes={classes}."
-                )
-            empty = [c for c in classes if c not in found]
-            if empty:
-                raise ValueError(f"{root}: no files for classes {empty} (found {found}).")
-        labels = np.array([classes.index(r["class"]) for r in records], dtype=np.int64)
-        groups = labels
-        task = "classification"
 
+def _segmentation_targets(root: Path, records, images, opts: FolderOptions):
+    """(task, classes, (N, H, W) uint8 labels, (N,) split groups) of a segmentation folder."""
+    n = len(records)
+    if len(images["labels"]) != n:
+        raise ValueError(
+            f"{root}: segmentation needs labels for every image; "
+            f"{n - len(images['labels'])} have none."
+        )
+    labels = _segmentation_labels(np.stack(images["labels"]), records, root)
+    classes = _segmentation_classes(opts.classes, root, labels)
+    bad = (labels != IGNORE_INDEX) & (labels >= len(classes))
+    if bad.any():
+        raise ValueError(
+            f"{root}: labels hold values {np.unique(labels[bad])[:5].tolist()} "
+            f">= {len(classes)} classes."
+        )
+    return "segmentation", classes, labels, np.zeros(n, np.int64)
+
+
+def _classification_targets(root: Path, records, classes):
+    """(task, classes, (N,) int64 labels, the same labels as split groups)."""
+    found = sorted({r["class"] for r in records})
+    if classes is None:
+        classes = found
+    else:
+        classes = [str(c) for c in classes]
+        unknown = sorted(set(found) - set(classes))
+        if unknown:
+            raise ValueError(f"{root}: files of classes {unknown} are not in classes={classes}.")
+        empty = [c for c in classes if c not in found]
+        if empty:
+            raise ValueError(f"{root}: no files for classes {empty} (found {found}).")
+    labels = np.array([classes.index(r["class"]) for r in records], dtype=np.int64)
+    return "classification", classes, labels, labels
+
+
+def _conditions(root: Path, records, levels_file):
+    """(msppp (N,), sbr (N,), level (N,)) from the files or ``levels_file`` (which
+    updates ``records``); NaN and "unknown" where neither gives them."""
     if levels_file is not None:
         given = _read_levels_file(
             levels_file, root, [str(r["path"].relative_to(root)) for r in records]
@@ -454,40 +538,7 @@ def load_folder(
     bad_level = sorted(set(level) - {*LEVELS, "unknown"})
     if bad_level:
         raise ValueError(f"{root}: files hold levels {bad_level}; expected one of {LEVELS}.")
-    split = stratified_split(groups, test_fraction, sample_rng(seed, STREAM_SPLIT))
-    return Dataset(
-        task=task,
-        classes=classes,
-        depth_m=depth,
-        labels=labels,
-        split=split,
-        msppp=msppp,
-        sbr=sbr,
-        level=level,
-        clean_depth_m=np.stack(clean).astype(np.float32) if len(clean) == n else None,
-        reflectance=np.stack(refl).astype(np.float32) if len(refl) == n else None,
-        sensor=sensor,
-        meta={
-            "source": "external",
-            "root": str(root.resolve()),
-            "layout": layout,
-            "files": [str(r["path"].relative_to(root)) for r in records],
-            "depth_key": depth_key,
-            "clean_key": clean_key if len(clean) == n else None,
-            "reflectance_key": reflectance_key if len(refl) == n else None,
-            "depth_scale": float(depth_scale),
-            "levels_file": None if levels_file is None else str(Path(levels_file).resolve()),
-            "n_per_class": None if n_per_class is None else int(n_per_class),
-            "image_shape": list(shape),
-            "resized_from": {str(list(s)): c for s, c in shapes.items()}
-            if image_shape is not None
-            else None,
-            "seed": int(seed),
-            "test_fraction": float(test_fraction),
-            "sensor": sensor_to_dict(sensor),
-            "load_report": report,
-        },
-    )
+    return msppp, sbr, level
 
 
 def folder_has_levels(root, depth_key: str = "depth_ssp") -> bool:

@@ -16,6 +16,7 @@ class mix; SBR is drawn uniformly at random.
 from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -57,6 +58,7 @@ def check_levels(levels: Mapping) -> dict[str, object]:
 
 
 def check_sbr_values(sbr_values) -> list[float]:
+    """Validate signal-to-background ratios: one or more values > 0, as floats."""
     values = [float(v) for v in np.atleast_1d(sbr_values)]
     if not values or any(not v > 0 for v in values):
         raise ValueError(f"sbr_values must be one or more values > 0, got {sbr_values!r}.")
@@ -84,6 +86,7 @@ def assign_conditions(
     Args:
         groups: (N,) int group of each sample (its class, or 0 for segmentation).
         split: (N,) str split of each sample.
+
     Returns:
         msppp (N,) float64, sbr (N,) float64, level (N,) str.
     """
@@ -182,15 +185,43 @@ def observe_image(
     return rec.depth_m.astype(np.float32), rec.reflectivity.astype(np.float32)
 
 
-def _observe_chunk(depth, reflectance, msppp, sbr, uid, sensor, seed, method, model, compensated):
+@dataclass(frozen=True)
+class Imaging:
+    """How a clean scene becomes an observed image: the same for every sample of a set.
+
+    sensor: the SPL's timing (bins, jitter, reach).
+    method: the ``spl_al.photon.reconstruct`` method.
+    model: the fuller sensor model (``observe_image``); None: Algorithm 1.
+    range_compensated: the scene reflectance has no range falloff (street scenes).
+    """
+
+    sensor: SensorParams
+    method: str = "pooled"
+    model: ObservationModel | None = None
+    range_compensated: bool = False
+
+    def observe(self, depth_m, reflectance, msppp: float, sbr: float, rng):
+        """``observe_image`` of one clean (H, W) depth image in metres under this imaging."""
+        return observe_image(
+            depth_m,
+            reflectance,
+            msppp,
+            sbr,
+            self.sensor,
+            rng,
+            self.method,
+            model=self.model,
+            range_compensated=self.range_compensated,
+        )
+
+
+def _observe_chunk(depth, reflectance, msppp, sbr, uid, seed: int, imaging: Imaging):
     out_d = np.empty(depth.shape, np.float32)
     out_r = np.empty(depth.shape, np.float32)
     for k in range(len(depth)):
         rng = sample_rng(seed, STREAM_OBSERVE, uid[k])
         refl = None if reflectance is None else reflectance[k]
-        out_d[k], out_r[k] = observe_image(
-            depth[k], refl, msppp[k], sbr[k], sensor, rng, method, model, compensated
-        )
+        out_d[k], out_r[k] = imaging.observe(depth[k], refl, msppp[k], sbr[k], rng)
     return out_d, out_r
 
 
@@ -213,10 +244,8 @@ def observe(
     sensor: SensorParams,
     seed: int,
     uid: np.ndarray | None = None,
-    method: str = "pooled",
     workers: int | None = 1,
-    model: ObservationModel | None = None,
-    range_compensated: bool = False,
+    **imaging,
 ) -> tuple[np.ndarray, np.ndarray]:
     """Observed images of N clean depth images, each at its own (msppp, sbr).
 
@@ -224,21 +253,26 @@ def observe(
     result does not depend on ``workers`` or on which other samples are observed.
 
     Args:
-        clean_depth_m: (N, H, W) depth, NaN where nothing returns.
+        clean_depth_m: (N, H, W) depth in metres, NaN where nothing returns.
         reflectance: (N, H, W) scene reflectance, or None for uniform.
-        msppp, sbr: (N,) condition of each sample.
+        msppp, sbr: (N,) condition of each sample (signal photons per pixel, and the
+            signal-to-background ratio).
+        sensor: the SPL's timing.
+        seed: the seed of the photon draws.
         uid: (N,) sample ids (default 0..N-1).
-        model, range_compensated: the sensor model (``observe_image``; None:
-            Algorithm 1) and whether the reflectance lacks range falloff.
+        workers: processes (None = all cores; the result does not depend on it).
+        **imaging: ``method`` (default "pooled"), ``model`` and ``range_compensated``
+            of ``Imaging`` (None model: Algorithm 1).
+
     Returns:
         depth (N, H, W) float32 NaN at voids, reflectivity (N, H, W) float32.
     """
+    setup = Imaging(sensor, **imaging)
     clean = np.asarray(clean_depth_m, dtype=np.float32)
     n = len(clean)
     uid = np.arange(n) if uid is None else np.asarray(uid)
     msppp, sbr = np.broadcast_to(msppp, (n,)), np.broadcast_to(sbr, (n,))
     workers = default_workers() if workers is None else workers
-    chunks = chunk_indices(n, workers)
     args = [
         (
             clean[c],
@@ -246,13 +280,10 @@ def observe(
             msppp[c],
             sbr[c],
             uid[c],
-            sensor,
             seed,
-            method,
-            model,
-            range_compensated,
+            setup,
         )
-        for c in chunks
+        for c in chunk_indices(n, workers)
     ]
     results = run_chunks(_observe_chunk, args, workers)
     if not results:

@@ -26,6 +26,7 @@ class MethodSpec:
     n_variants: int | None = None
 
     def as_dict(self) -> dict:
+        """The method as a JSON-ready dict."""
         return {
             "strategy": self.strategy,
             "params": dict(self.params),

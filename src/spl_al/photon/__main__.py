@@ -16,6 +16,7 @@ from spl_al.photon.sensor import SensorParams
 
 
 def main(argv: list[str] | None = None) -> int:
+    """Run the ``python -m spl_al.photon`` command of ``argv``; the exit code."""
     parser = argparse.ArgumentParser(
         prog="python -m spl_al.photon", description=__doc__.splitlines()[0]
     )

@@ -84,6 +84,7 @@ class ObservationModel:
 
     @classmethod
     def from_dict(cls, params: dict | None) -> ObservationModel:
+        """The model of a dict of its fields (None or missing keys: the defaults)."""
         params = dict(params or {})
         known = {f.name for f in fields(cls)}
         unknown = sorted(set(params) - known)
@@ -94,10 +95,12 @@ class ObservationModel:
         return cls(**params)
 
     def to_dict(self) -> dict:
+        """The model's fields as a JSON-ready dict."""
         return asdict(self)
 
     @property
     def is_algorithm1(self) -> bool:
+        """Whether the model adds nothing to Algorithm 1 (the SIV model)."""
         return self == ObservationModel.algorithm1()
 
 

@@ -23,34 +23,16 @@ run on 10,000-bin real captures as on 1024-bin simulations.
 
 from __future__ import annotations
 
-from typing import NamedTuple
-
 import numpy as np
 
 from spl_al.photon.events import PhotonEvents
+from spl_al.photon.reconstruction import Reconstruction
 from spl_al.photon.sensor import SensorParams
 
 ML_METHODS = ("pooled", "lmf")  # maximum likelihood: no weights needed
 METHODS = (*ML_METHODS, "sspi")
 _EM_STEPS = 3
 _OWN_MARGIN_PHOTONS = 1.5  # at least: own evidence must beat the neighbourhood by this many photons
-
-
-class Reconstruction(NamedTuple):
-    """What ``reconstruct`` recovers; every field is a (rows, cols) image.
-
-    depth_m: depth in metres, NaN at voids (pixels without a usable photon).
-    reflectivity: estimated signal photons per pixel (the intensity image); 0 at voids.
-    background: estimated background photons per pixel over all T bins.
-    counts: photons detected per pixel (int64).
-    valid: bool, True where depth_m is finite.
-    """
-
-    depth_m: np.ndarray
-    reflectivity: np.ndarray
-    background: np.ndarray
-    counts: np.ndarray
-    valid: np.ndarray
 
 
 class _SortedPhotons:

@@ -718,20 +718,52 @@ class ObjectImage:
     fill: float
 
 
+@dataclass(frozen=True)
+class ObjectView:
+    """How an object scene is framed and what surrounds it (``render_object``'s options).
+
+    image_shape: (rows, cols); pixels are square in angle, rows span ``fov_deg``.
+    fov_deg: vertical field of view, degrees.
+    max_range_m: nothing beyond this range returns (keep it inside the sensor's reach).
+    fill: (low, high) of the fraction of the frame the object fills.
+    elevation_deg: (low, high) of the viewing elevation above the object's centre.
+    p_ground, p_wall: probabilities of a ground plane and of a wall behind the object.
+    min_return: detection floor: pixels whose return albedo * |cos| * (d0 / d)^2 is
+        below it give no return (far ground at grazing incidence, dark glass).
+    azimuth_deg: with an instance rng, the view azimuth varies by +-azimuth_deg
+        around the instance's resting orientation (None: any azimuth, or +-60
+        degrees of broadside for bikes, ships and roadblocks).
+    object_size_m: (low, high): scale the object (about its ground contact) so its
+        bounding-box diagonal is drawn uniformly from this range, per instance
+        (from the instance rng when given), whatever its category; None: the
+        category's own size.
+    """
+
+    image_shape: tuple[int, int] = (64, 64)
+    fov_deg: float = 30.0
+    max_range_m: float = 140.0
+    fill: tuple[float, float] = (0.3, 0.95)
+    elevation_deg: tuple[float, float] = (2.0, 35.0)
+    p_ground: float = 0.75
+    p_wall: float = 0.3
+    min_return: float = 0.05
+    azimuth_deg: float | None = None
+    object_size_m: tuple[float, float] | None = None
+
+    def __post_init__(self):
+        size = self.object_size_m
+        if size is not None and not (len(size) == 2 and 0 < size[0] <= size[1]):
+            raise ValueError(
+                f"object_size_m must be (low, high) with 0 < low <= high, got {size!r}."
+            )
+
+
 def render_object(
     category: str,
     rng: np.random.Generator,
     image_shape=(64, 64),
-    fov_deg: float = 30.0,
-    max_range_m: float = 140.0,
-    fill=(0.3, 0.95),
-    elevation_deg=(2.0, 35.0),
-    p_ground: float = 0.75,
-    p_wall: float = 0.3,
-    min_return: float = 0.05,
     instance_rng: np.random.Generator | None = None,
-    azimuth_deg: float | None = None,
-    object_size_m=None,
+    **view,
 ) -> ObjectImage:
     """Render one scene of ``category`` seen by a scanning SPL.
 
@@ -739,55 +771,72 @@ def render_object(
         category: one of ``CATEGORIES``.
         rng: every random choice (shape, pose, view, scene) comes from it.
         image_shape: (rows, cols); pixels are square in angle, rows span ``fov_deg``.
-        fov_deg: vertical field of view, degrees.
-        max_range_m: nothing beyond this range returns (keep it inside the sensor's reach).
-        fill: (low, high) of the fraction of the frame the object fills.
-        elevation_deg: (low, high) of the viewing elevation above the object's centre.
-        p_ground, p_wall: probabilities of a ground plane and of a wall behind the object.
-        min_return: detection floor: pixels whose return albedo * |cos| * (d0 / d)^2 is
-            below it give no return (far ground at grazing incidence, dark glass).
         instance_rng: when given, the object's shape (and its resting orientation)
             come from it instead of ``rng``: samples sharing an instance_rng seed show
             one physical object, as a capture campaign films a few objects many times.
-        azimuth_deg: with ``instance_rng``, the view azimuth varies by +-azimuth_deg
-            around the instance's resting orientation (None: any azimuth, or +-60
-            degrees of broadside for bikes, ships and roadblocks).
-        object_size_m: (low, high): scale the object (about its ground contact) so its
-            bounding-box diagonal is drawn uniformly from this range, per instance
-            (from ``instance_rng`` when given), whatever its category; None: the
-            category's own size.
+        **view: the other fields of ``ObjectView`` (``fov_deg``, ``max_range_m``,
+            ``fill``, ``elevation_deg``, ``p_ground``, ``p_wall``, ``min_return``,
+            ``azimuth_deg``, ``object_size_m``).
     """
+    _check_category(category)
+    return render_view(category, rng, ObjectView(image_shape=image_shape, **view), instance_rng)
+
+
+def render_view(
+    category: str,
+    rng: np.random.Generator,
+    view: ObjectView,
+    instance_rng: np.random.Generator | None = None,
+) -> ObjectImage:
+    """``render_object`` with its options as one ``ObjectView``."""
+    _check_category(category)
+    shape_rng = rng if instance_rng is None else instance_rng
+    obj = _build_object(category, shape_rng, view.object_size_m)
+    lo, hi = obj.bounds()
+    centre = (lo + hi) / 2
+    size = float(np.linalg.norm(hi - lo))
+    direction = _view_direction(category, rng, instance_rng, view)
+    target_fill = _u(rng, *view.fill)
+    grid = ScanGrid.square_pixels(view.image_shape, view.fov_deg)
+    distance, pose = _frame(obj, centre, size, direction, target_fill, grid, view, rng)
+    hits = cast_mesh(grid, pose, obj)
+    hits = _add_surroundings(hits, grid, pose, centre, size, direction, view, rng)
+    return _finish(hits, distance, view.max_range_m, target_fill, view.min_return)
+
+
+def _check_category(category: str) -> None:
     if category not in BUILDERS:
         raise ValueError(f"category must be one of {CATEGORIES}, got {category!r}.")
-    if object_size_m is not None and not (
-        len(object_size_m) == 2 and 0 < object_size_m[0] <= object_size_m[1]
-    ):
-        raise ValueError(
-            f"object_size_m must be (low, high) with 0 < low <= high, got {object_size_m!r}."
-        )
-    shape_rng = rng if instance_rng is None else instance_rng
+
+
+def _build_object(category: str, shape_rng: np.random.Generator, object_size_m) -> M.Mesh:
+    """The object's mesh, scaled to ``object_size_m`` when given, labelled as the object."""
     obj = BUILDERS[category](shape_rng)
     if object_size_m is not None:
         lo, hi = obj.bounds()
         obj = obj.scaled(_u(shape_rng, *object_size_m) / float(np.linalg.norm(hi - lo)))
     obj.label = np.full(len(obj.faces), OBJECT_LABEL, dtype=np.int64)
-    grid = ScanGrid.square_pixels(image_shape, fov_deg)
-    lo, hi = obj.bounds()
-    centre = (lo + hi) / 2
-    size = float(np.linalg.norm(hi - lo))
-    if instance_rng is not None and azimuth_deg is not None:
+    return obj
+
+
+def _view_direction(category, rng, instance_rng, view: ObjectView) -> np.ndarray:
+    """Unit vector from the object's centre towards the sensor."""
+    if instance_rng is not None and view.azimuth_deg is not None:
         rest = -np.pi / 2 if category in _SIDE_VIEW else _u(instance_rng, 0, 2 * np.pi)
-        view_az = rest + np.deg2rad(_u(rng, -azimuth_deg, azimuth_deg))
+        view_az = rest + np.deg2rad(_u(rng, -view.azimuth_deg, view.azimuth_deg))
     elif category in _SIDE_VIEW:
         view_az = -np.pi / 2 + np.deg2rad(_u(rng, -60, 60)) + np.pi * rng.integers(0, 2)
     else:
         view_az = _u(rng, 0, 2 * np.pi)
-    view_el = np.deg2rad(_u(rng, *elevation_deg))
-    direction = np.array(
+    view_el = np.deg2rad(_u(rng, *view.elevation_deg))
+    return np.array(
         [np.cos(view_el) * np.cos(view_az), np.cos(view_el) * np.sin(view_az), np.sin(view_el)]
     )
-    target_fill = _u(rng, *fill)
 
+
+def _frame(obj, centre, size, direction, target_fill, grid, view: ObjectView, rng):
+    """(distance_m, pose): the distance at which the object fills ``target_fill`` of the
+    frame, and the sensor pose there, aimed off-centre."""
     # Angular extent at a far reference distance sets the distance for the target fill.
     ref = 20.0 * size
     pose = Pose.looking_at(centre + ref * direction, centre)
@@ -795,27 +844,30 @@ def render_object(
     ang_x = np.arctan2(local[:, 0], local[:, 1])
     ang_z = np.arctan2(local[:, 2], np.hypot(local[:, 0], local[:, 1]))
     rows, cols = grid.shape
-    step = np.deg2rad(fov_deg) / rows
+    step = np.deg2rad(view.fov_deg) / rows
     extent = max(np.ptp(ang_x) / (cols * step), np.ptp(ang_z) / (rows * step))
-    distance = min(ref * extent / target_fill, 0.7 * max_range_m)
+    distance = min(ref * extent / target_fill, 0.7 * view.max_range_m)
     # Off-centre framing: aim at a point shifted by up to half the frame left free.
     slack = max(0.0, 1.0 - target_fill) / 2
     shift = rng.uniform(-slack, slack, 2) * np.array([cols, rows]) * step * distance
     pose = Pose.looking_at(centre + distance * direction, centre)
     aim = centre + shift[0] * pose.rotation[:, 0] + shift[1] * pose.rotation[:, 2]
-    pose = Pose.looking_at(centre + distance * direction, aim)
+    return distance, Pose.looking_at(centre + distance * direction, aim)
 
-    hits = cast_mesh(grid, pose, obj)
-    if rng.random() < p_ground:
+
+def _add_surroundings(hits, grid, pose, centre, size, direction, view: ObjectView, rng) -> Hits:
+    """``hits`` with a ground plane (probability ``p_ground``) and a wall behind the
+    object (probability ``p_wall``), the nearest surface winning each pixel."""
+    if rng.random() < view.p_ground:
         ground, _ = cast_plane(grid, pose, (0, 0, 0), (0, 0, 1), _u(rng, 0.03, 0.45), 0)
         hits = hits.nearest(ground)
-    if rng.random() < p_wall:
+    if rng.random() < view.p_wall:
         back = np.array([-direction[0], -direction[1], 0.0])
         back = M.rotation_z(np.deg2rad(_u(rng, -30, 30))) @ (back / max(np.linalg.norm(back), 1e-9))
         wall_point = centre + back * size * _u(rng, 0.7, 3.0)
         wall, _ = cast_plane(grid, pose, wall_point, -back, _u(rng, 0.2, 0.7), 0)
         hits = hits.nearest(wall)
-    return _finish(hits, distance, max_range_m, target_fill, min_return)
+    return hits
 
 
 def _finish(hits: Hits, distance_m: float, max_range_m: float, fill: float, min_return: float):

@@ -162,6 +162,7 @@ class Hits:
 
     @classmethod
     def empty(cls, shape) -> Hits:
+        """Hits of ``shape`` where no ray hits anything (infinite range, label -1)."""
         return cls(
             np.full(shape, np.inf), np.full(shape, -1, np.int64), np.zeros(shape), np.zeros(shape)
         )
@@ -174,6 +175,7 @@ class Hits:
         )
 
     def fields(self):
+        """(range_m, label, albedo, cos_incidence), each (rows, cols)."""
         return (self.range_m, self.label, self.albedo, self.cos_incidence)
 
 

@@ -39,6 +39,7 @@ class Road:
     sidewalk_m: float
 
     def centre_x(self, y):
+        """Road centre x (m) at distances ``y`` (m) along the street."""
         return self.offset_m + 0.5 * self.curvature_per_m * np.asarray(y) ** 2
 
     def heading(self, y):
@@ -206,6 +207,7 @@ def tree(rng: np.random.Generator) -> M.Mesh:
 
 
 def bush(rng: np.random.Generator, length: float) -> M.Mesh:
+    """A bush of ``length`` metres along the street: a squashed ellipsoid on the ground."""
     mesh = M.ellipsoid(
         (length / 2, rng.uniform(0.4, 0.9), rng.uniform(0.4, 1.0)),
         rng.uniform(0.3, 0.55),

@@ -171,6 +171,7 @@ class BadgeStrategy(Strategy):
         self.first = first
 
     def params(self) -> dict:
+        """The strategy's parameters, as recorded with its results."""
         return {"first": self.first}
 
     def _select(self, inputs: StrategyInputs, k: int, rng: np.random.Generator) -> np.ndarray:

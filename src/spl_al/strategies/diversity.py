@@ -20,4 +20,5 @@ class DiversityStrategy(DUISStrategy):
         super().__init__(n_cand=n_cand, alpha=0.0, eps=eps, max_iter=max_iter)
 
     def params(self) -> dict:
+        """The strategy's parameters, as recorded with its results."""
         return {"n_cand": self.n_cand, "eps": self.eps}

@@ -217,6 +217,7 @@ class DUISStrategy(Strategy):
         )
 
     def params(self) -> dict:
+        """The strategy's parameters, as recorded with its results."""
         return {"n_cand": self.n_cand, "alpha": self.alpha, "eps": self.eps}
 
     def candidates(self, inputs: StrategyInputs, k: int, rng: np.random.Generator) -> np.ndarray:

@@ -156,4 +156,5 @@ class StrategyInputs:
 
     @property
     def n_unlabeled(self) -> int:
+        """Number of unlabeled pool samples the strategy chooses from."""
         return len(self.unlabeled_idx)

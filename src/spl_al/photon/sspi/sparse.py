@@ -109,6 +109,7 @@ class Rulebook:
 
     @property
     def n_out(self) -> int:
+        """Number of output sites."""
         return int(self.table.shape[0])
 
 
