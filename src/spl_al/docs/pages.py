@@ -1,0 +1,351 @@
+"""docs/results.md and the README's results block from a results folder.
+
+Reads what ``snakemake all`` writes per dataset under ``RESULTS/{dataset}/tables``
+(budget, levels, ablation, sensitivity, claims and comparisons as CSV and Markdown,
+summary.json, robustness_diff.csv), copies the key figures into docs/figures/ as
+``{dataset}_{name}.png`` and rewrites two generated blocks:
+
+- docs/results.md between ``<!-- results:start -->`` and ``<!-- results:end -->``: every
+  table of every dataset, the area under the budget curve, the claims' verdicts, the
+  resolved paired comparisons and the figures;
+- README.md between the same markers: one compact table per dataset (budget columns and
+  AUBC) with its claims' verdicts.
+
+Text outside the markers (the hand-written reading of a run, the statistics section)
+is left untouched. Run it from the repository root:
+
+    python -m spl_al.docs.pages results/
+"""
+
+from __future__ import annotations
+
+import argparse
+import csv
+import json
+import math
+import shutil
+import sys
+from datetime import UTC, datetime
+from pathlib import Path
+
+from spl_al.docs.markers import replace_block
+
+COMMAND = "python -m spl_al.docs.pages"
+BLOCK = "results"
+# datasets in this order first (the default config's), then any other alphabetically
+ORDER = ("real_cls", "synth_cls", "street_seg", "street_pc")
+TABLES = (
+    ("budget", "Budget"),
+    ("levels", "Per MSPPP level"),
+    ("ablation", "Ablation"),
+    ("sensitivity", "Sensitivity"),
+)
+# results/{dataset}/figures/{source}.png -> docs/figures/{dataset}_{name}.png
+FIGURES = (
+    ("curves", "budget", "budget curves, mean ± std over seeds"),
+    ("level_curves", "levels", "budget curves per MSPPP level"),
+    ("aubc", "aubc", "area under the budget curve per method: every seed, mean, 95% interval"),
+    ("robustness_diff", "robustness_diff", "DUIS minus the best baseline over MSPPP x SBR"),
+)
+METRIC_NAMES = {"accuracy": "accuracy", "miou": "mIoU"}
+VERDICTS = ("supported", "contradicted", "inconclusive")
+
+
+def datasets(results: Path) -> list[str]:
+    """Datasets of a results folder: the folders that hold tables/budget.csv."""
+    found = sorted(p.parent.parent.name for p in results.glob("*/tables/budget.csv"))
+    return [d for d in ORDER if d in found] + [d for d in found if d not in ORDER]
+
+
+def _rows(path: Path) -> list[dict]:
+    with path.open(newline="") as handle:
+        return list(csv.DictReader(handle))
+
+
+def _num(value) -> float:
+    try:
+        return float(value)
+    except (TypeError, ValueError):
+        return math.nan
+
+
+def _cell(row: dict, decimals: int = 1) -> str:
+    """A table cell as the report renders it: mean ± std, bold leader, dagger tie."""
+    mean, std = _num(row["mean"]), _num(row["std"])
+    if math.isnan(mean):
+        return "-"
+    text = (
+        f"{mean:.{decimals}f}" if math.isnan(std) else f"{mean:.{decimals}f} ± {std:.{decimals}f}"
+    )
+    if str(row.get("partial", "")).lower() == "true":
+        text += f" (n={row['n_seeds']})"
+    mark = row.get("mark", "")
+    return f"**{text}**" if mark == "bold" else f"{text} †" if mark == "tie" else text
+
+
+def _summary(results: Path, dataset: str) -> dict:
+    path = results / dataset / "tables" / "summary.json"
+    return json.loads(path.read_text()) if path.exists() else {}
+
+
+def _metric(budget: list[dict]) -> str:
+    name = budget[0].get("metric", "") if budget else ""
+    return METRIC_NAMES.get(name, name)
+
+
+def _is_standin(budget: list[dict]) -> bool:
+    return any(str(r.get("synthetic_standin", "")).lower() == "true" for r in budget)
+
+
+def _aubc(summary: dict, method: str, scale: float) -> str:
+    entry = summary.get("methods", {}).get(method, {}).get("aubc")
+    if not entry or entry.get("mean") is None:
+        return "-"
+    mean, low, high = (_num(entry.get(k)) * scale for k in ("mean", "ci_low", "ci_high"))
+    if math.isnan(low) or math.isnan(high):
+        return f"{mean:.1f}"
+    return f"{mean:.1f} [{low:.1f}, {high:.1f}]"
+
+
+def compact_table(results: Path, dataset: str) -> list[str]:
+    """Budget columns per method and the AUBC with its 95% interval, as Markdown lines."""
+    budget = _rows(results / dataset / "tables" / "budget.csv")
+    summary = _summary(results, dataset)
+    scale = _num(budget[0].get("scale", 100)) if budget else 100.0
+    cols = sorted({(int(r["col_pos"]), r["col"]) for r in budget})
+    methods = sorted({(int(r["row_pos"]), r["row"], r["method"]) for r in budget})
+    cells = {(r["row"], r["col"]): r for r in budget}
+    lines = [
+        "| Method | " + " | ".join(c for _, c in cols) + " | AUBC [95% CI] |",
+        "|:---|" + "---:|" * len(cols) + "---:|",
+    ]
+    for _, row, method in methods:
+        values = [_cell(cells[(row, c)]) if (row, c) in cells else "-" for _, c in cols]
+        lines.append(f"| {row} | " + " | ".join(values) + f" | {_aubc(summary, method, scale)} |")
+    return lines
+
+
+def claims(results: Path, dataset: str) -> list[dict]:
+    path = results / dataset / "tables" / "claims.csv"
+    return _rows(path) if path.exists() else []
+
+
+def verdict_line(rows: list[dict]) -> str:
+    """One sentence: how many claims got each verdict, naming the decided ones."""
+    if not rows:
+        return "No claim of the paper is checked on this dataset."
+    counts = {v: sum(r["verdict"] == v for r in rows) for v in VERDICTS}
+    parts = [f"{counts[v]} {v}" for v in VERDICTS if counts[v]]
+    text = f"Claims: {', '.join(parts)} (of {len(rows)})."
+    for verdict in ("supported", "contradicted"):
+        named = [r["claim"].rstrip(".") for r in rows if r["verdict"] == verdict]
+        if named:
+            text += f" {verdict.capitalize()}: " + "; ".join(named) + "."
+    return text
+
+
+def _seeds(summary: dict, budget: list[dict]) -> str:
+    n = summary.get("n_seeds")
+    if n is None and budget:
+        n = max(int(_num(r.get("n_seeds")) or 0) for r in budget)
+    return f"{n} seed{'s' if n != 1 else ''}" if n is not None else "seeds"
+
+
+def _heading(results: Path, dataset: str) -> str:
+    budget = _rows(results / dataset / "tables" / "budget.csv")
+    summary = _summary(results, dataset)
+    text = f"{_metric(budget)} (%), mean ± std over {_seeds(summary, budget)}"
+    if _is_standin(budget):
+        text += "; synthetic stand-in for real data"
+    return text
+
+
+def readme_block(results: Path) -> str:
+    """The README's compact results: one table per dataset and its claims' verdicts."""
+    lines = [
+        f"<!-- generated by `{COMMAND} RESULTS`: edit the generator, not this block -->",
+        "",
+    ]
+    for dataset in datasets(results):
+        lines += [f"**{dataset}**: {_heading(results, dataset)}.", ""]
+        lines += compact_table(results, dataset)
+        lines += ["", verdict_line(claims(results, dataset)), ""]
+    lines += [
+        "Bold: the leader of a column, resolved from the runner-up; †: the highest mean, "
+        "a tie at this number of seeds (the rule: "
+        "[docs/results.md](docs/results.md#statistics-how-sure)). Every table, figure and "
+        "claim: [docs/results.md](docs/results.md).",
+    ]
+    return "\n".join(lines)
+
+
+def _md_table(results: Path, dataset: str, name: str) -> str | None:
+    path = results / dataset / "tables" / f"{name}.md"
+    return path.read_text().strip() if path.exists() else None
+
+
+def _resolved_comparisons(results: Path, dataset: str) -> list[str]:
+    path = results / dataset / "tables" / "comparisons.csv"
+    if not path.exists():
+        return []
+    rows = _rows(path)
+    resolved = [r for r in rows if str(r.get("resolved", "")).lower() == "true"]
+    lines = [
+        f"{len(resolved)} of {len(rows)} paired comparisons are resolved "
+        f"(all of them: `results/{dataset}/tables/comparisons.md`)."
+    ]
+    if resolved:
+        lines += [
+            "",
+            "| experiment | point | A − B | difference [95% CI] | p | n |",
+            "|:---|:---|:---|---:|---:|---:|",
+        ]
+        for r in resolved:
+            label = r.get("parameter") or r.get("point", "")
+            diff, low, high = (_num(r[k]) for k in ("diff", "ci_low", "ci_high"))
+            lines.append(
+                f"| {r['experiment']} | {r.get('point', '') or label} | "
+                f"{r['method_a']} − {r['method_b']} | {diff:+.1f} [{low:+.1f}, {high:+.1f}] | "
+                f"{_num(r['p_value']):.3g} | {r['n']} |"
+            )
+    return lines
+
+
+def _robustness(results: Path, dataset: str) -> list[str]:
+    path = results / dataset / "tables" / "robustness_diff.csv"
+    if not path.exists():
+        return []
+    rows = _rows(path)
+    better = sum(str(r.get("resolved", "")).lower() == "true" and _num(r["diff"]) > 0 for r in rows)
+    worse = sum(str(r.get("resolved", "")).lower() == "true" and _num(r["diff"]) < 0 for r in rows)
+    baseline = rows[0].get("baseline", "the best baseline") if rows else ""
+    return [
+        f"Condition robustness map (DUIS − {baseline}, {len(rows)} cells of MSPPP x SBR): "
+        f"{better} cells resolved in DUIS's favour, {worse} against, "
+        f"{len(rows) - better - worse} unresolved."
+    ]
+
+
+def figure_name(dataset: str, name: str) -> str:
+    return f"{dataset}_{name}.png"
+
+
+def copy_figures(results: Path, figures: Path) -> dict[str, list[tuple[str, str]]]:
+    """Copy each dataset's key figures; {dataset: [(file name, caption), ...]}."""
+    copied: dict[str, list[tuple[str, str]]] = {}
+    for dataset in datasets(results):
+        for source, name, caption in FIGURES:
+            src = results / dataset / "figures" / f"{source}.png"
+            if src.exists():
+                figures.mkdir(parents=True, exist_ok=True)
+                dest = figures / figure_name(dataset, name)
+                shutil.copyfile(src, dest)
+                copied.setdefault(dataset, []).append((dest.name, caption))
+    return copied
+
+
+def results_block(results: Path, figures: dict | None = None, figures_dir: str = "figures") -> str:
+    """docs/results.md's generated part: every dataset's tables, verdicts and figures."""
+    figures = figures or {}
+    stamp = ""
+    stamps = [p.stat().st_mtime for p in results.glob("*/tables/summary.json")]
+    if stamps:
+        stamp = datetime.fromtimestamp(max(stamps), tz=UTC).strftime(" (tables of %Y-%m-%d)")
+    lines = [
+        f"<!-- generated by `{COMMAND} RESULTS`{stamp}: edit the generator or the text "
+        "outside the markers, not this block -->",
+        "",
+    ]
+    for dataset in datasets(results):
+        summary = _summary(results, dataset)
+        lines += [
+            f"## {dataset}",
+            "",
+            f"{_heading(results, dataset)}.",
+            "",
+        ]
+        for note in summary.get("notes", []):
+            lines += [f"*{note}*", ""]
+        for file_name, caption in figures.get(dataset, []):
+            lines += [f"![{dataset}: {caption}]({figures_dir}/{file_name})", ""]
+        for name, title in TABLES:
+            table = _md_table(results, dataset, name)
+            if table:
+                lines += [f"### {dataset}: {title[:1].lower()}{title[1:]}", "", table, ""]
+        scale = 100.0
+        budget = _rows(results / dataset / "tables" / "budget.csv")
+        if budget:
+            scale = _num(budget[0].get("scale", 100))
+        methods = summary.get("methods", {})
+        if methods:
+            lines += [
+                f"### {dataset}: area under the budget curve",
+                "",
+                "| method | AUBC [95% CI] | seeds | final mean ± std |",
+                "|:---|---:|---:|---:|",
+            ]
+            names = {r["method"]: r["row"] for r in budget}
+            for method, entry in methods.items():
+                final = (
+                    f"{_num(entry.get('final_mean')) * scale:.1f} ± "
+                    f"{_num(entry.get('final_std')) * scale:.1f}"
+                )
+                lines.append(
+                    f"| {names.get(method, method)} | {_aubc(summary, method, scale)} | "
+                    f"{entry.get('n_seeds', '')} | {final} |"
+                )
+            lines.append("")
+        rows = claims(results, dataset)
+        if rows:
+            lines += [f"### {dataset}: the paper's claims", "", verdict_line(rows), ""]
+            table = _md_table(results, dataset, "claims")
+            if table:
+                lines += [table, ""]
+        comparisons = _resolved_comparisons(results, dataset)
+        robustness = _robustness(results, dataset)
+        if comparisons or robustness:
+            lines += [f"### {dataset}: paired comparisons", "", *comparisons, ""]
+            if robustness:
+                lines += [*robustness, ""]
+    return "\n".join(lines).rstrip()
+
+
+DEFAULT_RESULTS_PAGE = """# Results
+
+<!-- results:start -->
+<!-- results:end -->
+"""
+
+
+def update(results: Path, docs: Path = Path("docs"), readme: Path = Path("README.md")) -> None:
+    """Copy the figures, rewrite docs/results.md's and the README's generated blocks."""
+    results, docs, readme = Path(results), Path(docs), Path(readme)
+    if not datasets(results):
+        raise ValueError(f"{results} holds no dataset with tables/budget.csv.")
+    from spl_al.atomic import atomic_write_text
+
+    figures = copy_figures(results, docs / "figures")
+    page = docs / "results.md"
+    text = page.read_text() if page.exists() else DEFAULT_RESULTS_PAGE
+    atomic_write_text(page, replace_block(text, BLOCK, results_block(results, figures)))
+    if readme.exists():
+        atomic_write_text(readme, replace_block(readme.read_text(), BLOCK, readme_block(results)))
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(prog=COMMAND, description=__doc__.splitlines()[0])
+    parser.add_argument("results", type=Path, help="a results folder (snakemake all's)")
+    parser.add_argument("--docs", type=Path, default=Path("docs"))
+    parser.add_argument("--readme", type=Path, default=Path("README.md"))
+    args = parser.parse_args(argv)
+    try:
+        update(args.results, args.docs, args.readme)
+    except ValueError as exc:
+        print(f"error: {exc}", file=sys.stderr)
+        return 1
+    print(f"wrote {args.docs / 'results.md'}, {args.readme} and {args.docs / 'figures'}/")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

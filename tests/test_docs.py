@@ -1,0 +1,202 @@
+"""The documentation: links resolve, generated pages match their generators."""
+
+import csv
+import json
+import re
+from pathlib import Path
+
+import pytest
+import yaml
+
+from spl_al.docs import configuration, pages
+from spl_al.docs.markers import replace_block
+
+ROOT = Path(__file__).resolve().parent.parent
+PAGES = [ROOT / "README.md", ROOT / "CHANGELOG.md", *sorted((ROOT / "docs").glob("*.md"))]
+LINK = re.compile(r"(?<!!)\[[^\]]*\]\(([^)\s]+)\)|!\[[^\]]*\]\(([^)\s]+)\)")
+
+
+def anchors(path: Path) -> set[str]:
+    """GitHub's anchors of a Markdown file's headings (duplicates get -1, -2, ...)."""
+    seen: dict[str, int] = {}
+    out = set()
+    in_code = False
+    for line in path.read_text().splitlines():
+        if line.startswith("```"):
+            in_code = not in_code
+        if in_code or not line.startswith("#"):
+            continue
+        text = line.lstrip("#").strip().lower()
+        slug = re.sub(r"[^\w\- ]", "", text).replace(" ", "-")
+        n = seen.get(slug, 0)
+        seen[slug] = n + 1
+        out.add(slug if n == 0 else f"{slug}-{n}")
+    return out
+
+
+def links(path: Path):
+    in_code = False
+    for line in path.read_text().splitlines():
+        if line.startswith("```"):
+            in_code = not in_code
+        if in_code:
+            continue
+        for match in LINK.finditer(line):
+            yield match.group(1) or match.group(2)
+
+
+@pytest.mark.parametrize("page", PAGES, ids=lambda p: str(p.relative_to(ROOT)))
+def test_relative_links_resolve(page):
+    broken = []
+    for target in links(page):
+        if re.match(r"^[a-z]+:", target):  # http:, https:, mailto:
+            continue
+        file_part, _, anchor = target.partition("#")
+        dest = (page.parent / file_part).resolve() if file_part else page
+        if not dest.exists():
+            broken.append(f"{target} (no such file)")
+        elif anchor and dest.suffix == ".md" and anchor not in anchors(dest):
+            broken.append(f"{target} (no heading with anchor #{anchor} in {dest.name})")
+    assert not broken, f"{page.relative_to(ROOT)}: broken links: {broken}"
+
+
+def test_no_shared_folder_references():
+    for page in PAGES:
+        assert "../shared" not in page.read_text(), page
+
+
+def test_configuration_page_is_up_to_date():
+    page = ROOT / "docs" / "configuration.md"
+    expected = configuration.build(ROOT, page.read_text())
+    assert page.read_text() == expected, (
+        "docs/configuration.md is out of date with config/schema.yaml or config/config.yaml: "
+        "run `python -m spl_al.docs.configuration` and commit the result."
+    )
+
+
+def test_every_schema_key_has_a_description():
+    schema = yaml.safe_load((ROOT / "config" / "schema.yaml").read_text())
+    assert configuration.undescribed(schema) == []
+
+
+def test_configuration_page_lists_every_default_key():
+    text = (ROOT / "docs" / "configuration.md").read_text()
+    config = yaml.safe_load((ROOT / "config" / "config.yaml").read_text())
+    for key in config:
+        assert f"| `{key}` |" in text, key
+    for key in config["datasets"]["real_cls"]["train"]["fit"]:
+        assert f"| `{key}` |" in text, key
+
+
+def test_split_unit():
+    assert configuration.split_unit("ball radius of each level [m]") == (
+        "ball radius of each level",
+        "m",
+    )
+    assert configuration.split_unit("no unit here") == ("no unit here", "")
+
+
+def test_replace_block_keeps_the_outside():
+    text = "head\n<!-- x:start -->\nold\n<!-- x:end -->\ntail\n"
+    assert replace_block(text, "x", "new") == "head\n<!-- x:start -->\nnew\n<!-- x:end -->\ntail\n"
+    with pytest.raises(ValueError, match="x:start"):
+        replace_block("no markers", "x", "new")
+
+
+def _write_csv(path: Path, rows: list[dict]) -> None:
+    path.parent.mkdir(parents=True, exist_ok=True)
+    with path.open("w", newline="") as handle:
+        writer = csv.DictWriter(handle, fieldnames=list(rows[0]))
+        writer.writeheader()
+        writer.writerows(rows)
+
+
+def _fake_dataset(results: Path, name: str, metric: str, standin: bool) -> None:
+    tables = results / name / "tables"
+    budget = []
+    for pos, (method, label) in enumerate((("random", "Random"), ("duis", "DUIS"))):
+        for col, (ratio, mean) in enumerate(((2.0, 30.0 + pos), (4.0, 50.0 + 5 * pos))):
+            budget.append(
+                dict(method=method, round=col, n_labeled=10 * (col + 1), ratio=ratio / 100,
+                     mean=mean, std=1.5, n_seeds=3, n_expected=3, partial=False,
+                     mark="bold" if (pos, col) == (1, 1) else "", row=label, col=f"{ratio}%",
+                     row_pos=pos, col_pos=col, table="budget", dataset=name, metric=metric,
+                     scale=100.0, synthetic_standin=standin)
+            )  # fmt: skip
+    _write_csv(tables / "budget.csv", budget)
+    for table in ("budget", "levels", "ablation", "sensitivity", "claims"):
+        (tables / f"{table}.md").write_text(f"**{table} of {name}**\n\n| a |\n|---|\n| 1 |\n")
+    _write_csv(
+        tables / "claims.csv",
+        [
+            dict(claim_id="best", claim="DUIS has the highest metric at every budget.",
+                 verdict="supported", dataset=name),
+            dict(claim_id="aubc", claim="DUIS has the largest AUBC.", verdict="inconclusive",
+                 dataset=name),
+        ],
+    )  # fmt: skip
+    _write_csv(
+        tables / "comparisons.csv",
+        [
+            dict(experiment="budget", point="round 1 (4.0%)", parameter="", method_a="duis",
+                 method_b="random", n=3, diff=5.0, ci_low=1.0, ci_high=9.0, p_value=0.25,
+                 resolved=True),
+        ],
+    )  # fmt: skip
+    summary = {
+        "dataset": name,
+        "n_seeds": 3,
+        "methods": {
+            m: {"final_mean": 0.5, "final_std": 0.01, "n_seeds": 3,
+                "aubc": {"mean": 0.4, "ci_low": 0.35, "ci_high": 0.45}}
+            for m in ("random", "duis")
+        },
+        "notes": [],
+    }  # fmt: skip
+    (tables / "summary.json").write_text(json.dumps(summary))
+    figures = results / name / "figures"
+    figures.mkdir(parents=True)
+    (figures / "curves.png").write_bytes(b"\x89PNG fake")
+
+
+def test_pages_generator_writes_every_dataset_and_keeps_the_readme_outside(tmp_path):
+    results = tmp_path / "results"
+    _fake_dataset(results, "real_cls", "accuracy", True)
+    _fake_dataset(results, "street_seg", "miou", False)
+    (results / "logs").mkdir()  # not a dataset
+    docs = tmp_path / "docs"
+    docs.mkdir()
+    (docs / "results.md").write_text(
+        "# Results\n\nhand-written reading\n\n<!-- results:start -->\nold\n<!-- results:end -->\n"
+        "\n## Statistics\n\nhand-written rule\n"
+    )
+    head = "# project\n\nintro [link](docs/results.md)\n\n"
+    tail = "\n## Licence\n\nMIT\n"
+    readme = tmp_path / "README.md"
+    readme.write_text(f"{head}<!-- results:start -->\nold block\n<!-- results:end -->\n{tail}")
+
+    assert pages.main([str(results), "--docs", str(docs), "--readme", str(readme)]) == 0
+
+    text = readme.read_text()
+    assert text.startswith(head + "<!-- results:start -->\n")
+    assert text.endswith("<!-- results:end -->\n" + tail)
+    assert "old block" not in text
+    assert text.index("**real_cls**") < text.index("**street_seg**")
+    assert "| DUIS | 31.0 ± 1.5 | **55.0 ± 1.5** | 40.0 [35.0, 45.0] |" in text
+    assert "1 supported, 1 inconclusive (of 2)" in text
+    assert "synthetic stand-in" in text
+
+    page = (docs / "results.md").read_text()
+    assert page.startswith("# Results\n\nhand-written reading\n\n<!-- results:start -->")
+    assert page.endswith("<!-- results:end -->\n\n## Statistics\n\nhand-written rule\n")
+    for name in ("real_cls", "street_seg"):
+        for table in ("budget", "levels", "ablation", "sensitivity", "claims"):
+            assert f"**{table} of {name}**" in page
+        assert f"![{name}: budget curves, mean ± std over seeds](figures/{name}_budget.png)" in page
+        assert (docs / "figures" / f"{name}_budget.png").read_bytes() == b"\x89PNG fake"
+    assert "1 of 1 paired comparisons are resolved" in page
+
+
+def test_pages_generator_refuses_a_folder_without_results(tmp_path, capsys):
+    assert pages.main([str(tmp_path), "--docs", str(tmp_path), "--readme", str(tmp_path)]) == 1
+    assert "holds no dataset" in capsys.readouterr().err
