@@ -236,6 +236,7 @@ def build(root: Path = Path("."), page: str | None = None) -> str:
 
 
 def main(argv: list[str] | None = None) -> int:
+    """Command line: write (or with --check compare) docs/configuration.md."""
     parser = argparse.ArgumentParser(prog=COMMAND, description=__doc__.splitlines()[0])
     parser.add_argument("--root", type=Path, default=Path("."), help="repository root")
     parser.add_argument("--out", type=Path, default=None, help="default docs/configuration.md")

@@ -126,6 +126,7 @@ def compact_table(results: Path, dataset: str) -> list[str]:
 
 
 def claims(results: Path, dataset: str) -> list[dict]:
+    """The rows of a dataset's claims.csv (none when the run made no claims)."""
     path = results / dataset / "tables" / "claims.csv"
     return _rows(path) if path.exists() else []
 
@@ -227,6 +228,7 @@ def _robustness(results: Path, dataset: str) -> list[str]:
 
 
 def figure_name(dataset: str, name: str) -> str:
+    """File name of a dataset's figure copied into docs/figures."""
     return f"{dataset}_{name}.png"
 
 
@@ -333,6 +335,7 @@ def update(results: Path, docs: Path = Path("docs"), readme: Path = Path("README
 
 
 def main(argv: list[str] | None = None) -> int:
+    """Command line: regenerate docs/results.md and the README block from a results folder."""
     parser = argparse.ArgumentParser(prog=COMMAND, description=__doc__.splitlines()[0])
     parser.add_argument("results", type=Path, help="a results folder (snakemake all's)")
     parser.add_argument("--docs", type=Path, default=Path("docs"))

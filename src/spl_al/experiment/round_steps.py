@@ -94,6 +94,7 @@ def load_model(dataset, model_cfg: dict, weights):
 
 
 def save_model(model, path) -> None:
+    """Save the model's weights (state dict) atomically."""
     import torch
 
     state = model.state_dict()

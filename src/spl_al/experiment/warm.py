@@ -293,6 +293,7 @@ class Server:
         return server
 
     def stop(self) -> None:
+        """End the server (jobs already forked finish) and remove its socket folder."""
         os.environ.pop(SOCKET_ENV, None)
         if self.process.poll() is None:
             self.process.terminate()
@@ -304,6 +305,7 @@ class Server:
 
 
 def main(argv: list[str] | None = None) -> None:
+    """Command line: ``python -m spl_al.experiment.warm SOCKET [--parent PID]``."""
     parser = argparse.ArgumentParser(prog="python -m spl_al.experiment.warm")
     parser.add_argument("address", help="Unix socket path to listen at")
     parser.add_argument("--parent", type=int, default=None, help="exit when this pid is gone")

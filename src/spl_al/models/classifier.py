@@ -48,6 +48,7 @@ class BasicBlock(nn.Module):
         )
 
     def forward(self, x: torch.Tensor) -> torch.Tensor:
+        """relu(body(x) + shortcut(x)): (B, C_in, H, W) -> (B, C_out, H', W')."""
         return torch.relu(self.body(x) + self.shortcut(x))
 
 
@@ -122,6 +123,7 @@ class ResNet(_PooledClassifier):
         self._add_head(c_in)
 
     def trunk(self, x: torch.Tensor) -> torch.Tensor:
+        """Feature maps before pooling: (B, 2, H, W) -> (B, d, H', W')."""
         return self.stages(self.stem(x))
 
 
@@ -177,8 +179,10 @@ class SmallCNN(_PooledClassifier):
         self._add_head(c_in)
 
     def trunk(self, x: torch.Tensor) -> torch.Tensor:
+        """Feature maps before pooling: (B, 2, H, W) -> (B, d, H', W')."""
         return self.body(x)
 
     def forward(self, x: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
+        """Logits (B, C) and penultimate features (B, d) of (B, 2, H, W) inputs."""
         features = self.trunk(x).mean(dim=(2, 3))
         return self.fc(self.dropout(features)), features

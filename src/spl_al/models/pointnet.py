@@ -321,6 +321,7 @@ class SharedMLP(nn.Module):
         super()._load_from_state_dict(state_dict, prefix, *args, **kwargs)
 
     def forward(self, x: torch.Tensor) -> torch.Tensor:
+        """The shared MLP on the last axis: (..., C_in) -> (..., C_out)."""
         lead = x.shape[:-1]
         x = x.reshape(-1, x.shape[-1])
         for linear, norm in zip(self.linears, self.norms, strict=True):

@@ -82,6 +82,7 @@ class UNet(nn.Module):
         self.init_weights()
 
     def init_weights(self) -> None:
+        """Re-initialise convolutions and batch norms (He init, unit scale, zero shift)."""
         _init_conv_bn(self)
 
     def forward(self, x: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:

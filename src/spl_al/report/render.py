@@ -215,7 +215,7 @@ def render_latex(
     label: str | None = None,
     decimals: int = 1,
 ) -> str:
-    """A LaTeX ``table`` with a booktabs ``tabular`` (needs ``\\usepackage{booktabs}``).
+    r"""A LaTeX ``table`` with a booktabs ``tabular`` (needs ``\usepackage{booktabs}``).
 
     The caption carries the notes (partial cells, synthetic stand-in) so they travel
     with the table.

@@ -115,7 +115,7 @@ def _finish(
 
 
 def _leader_marks(frame: pd.DataFrame, d: pd.DataFrame, by: str) -> pd.Series:
-    """ "bold" on a group's leader resolved from its runner-up (``spl_al.report.stats``),
+    """Mark "bold" on a group's leader resolved from its runner-up (``spl_al.report.stats``),
     "tie" on a leader that is not, "" elsewhere. A group is a column of a method table
     or a parameter row of the sensitivity table; the test pairs the two methods' seeds
     in the records ``d`` at the cell's round (and MSPPP level)."""

@@ -166,6 +166,7 @@ class TrainConfig:
         return cls(epochs=200, batch_size=512, lr=0.1, momentum=0.9, weight_decay=5e-4)
 
     def to_dict(self) -> dict:
+        """The fields as a plain dict (``from_dict`` reads it back)."""
         return asdict(self)
 
     def total_steps(self, n_images: int, n_groups: int | None = None) -> int:

@@ -216,10 +216,12 @@ class ProgressLog:
             self._own = True
 
     def line(self, text: str) -> None:
+        """Write one line and flush it (a job log is read while the job runs)."""
         self.stream.write(text + "\n")
         self.stream.flush()
 
     def close(self) -> None:
+        """Close the file when this log opened it."""
         if self._own:
             self.stream.close()
 

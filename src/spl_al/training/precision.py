@@ -84,9 +84,11 @@ class LossScaler:
             self._scaler = GradScaler(device.type)
 
     def backward(self, loss: torch.Tensor) -> None:
+        """Backpropagate ``loss`` (times the scale with fp16)."""
         (loss if self._scaler is None else self._scaler.scale(loss)).backward()
 
     def step(self, optimizer) -> None:
+        """Update (unscaled gradients; with fp16 skipped on overflow, scale updated)."""
         if self._scaler is None:
             optimizer.step()
         else:

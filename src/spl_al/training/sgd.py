@@ -48,6 +48,7 @@ class SGD:
         self._buffers: list[torch.Tensor | None] = [None] * len(self.params)
 
     def zero_grad(self, set_to_none: bool = True) -> None:
+        """Drop (or zero) every parameter's gradient."""
         for p in self.params:
             if set_to_none:
                 p.grad = None
@@ -56,6 +57,7 @@ class SGD:
 
     @torch.no_grad()
     def step(self) -> None:
+        """One update of every parameter that has a gradient (the rule above)."""
         live = [i for i, p in enumerate(self.params) if p.grad is not None]
         params = [self.params[i] for i in live]
         grads = [p.grad for p in params]
