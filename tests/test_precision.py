@@ -82,3 +82,14 @@ def test_fp16_loss_scaling_unscales_the_step_and_skips_an_overflow():
     scaler.step(opt)  # an overflow: no step, and a lower scale
     assert all(torch.equal(p, q) for p, q in zip(layer.parameters(), before, strict=True))
     assert scaler._scaler.get_scale() < scale
+
+
+def test_auto_keeps_pointnet_fp32_where_bf16_does_not_pay():
+    from spl_al.scenes.street import default_grid
+
+    model = build_model("segmentation", 3, "pointnet2", grid=default_grid((16, 32)), n_points=64,
+                        centres=[16, 4], radii_m=[2, 6], neighbours=8, width=8)  # fmt: skip
+    assert resolve_precision("auto", CPU, model) == "fp32"
+    assert resolve_precision("bf16", CPU, model) == "bf16"  # asked for: given
+    conv = build_model("classification", 3, width=4)
+    assert resolve_precision("auto", CPU, conv) == resolve_precision("auto", CPU)

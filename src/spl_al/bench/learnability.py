@@ -126,7 +126,13 @@ def learner_score(
         groups=len(labeled),
     )  # fmt: skip
     test = dataset.test_idx
-    metrics = evaluate(model, dataset.depth_m[test], dataset.valid[test], dataset.labels[test])
+    metrics = evaluate(
+        model,
+        dataset.depth_m[test],
+        dataset.valid[test],
+        dataset.labels[test],
+        precision=fit.precision,
+    )
     return float(metrics["accuracy" if dataset.task == "classification" else "miou"])
 
 

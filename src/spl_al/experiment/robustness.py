@@ -214,7 +214,6 @@ def evaluate_grid(
             "give one model per seed."
         )
     compute.apply()
-    used = resolve_precision(precision, resolve_device(compute.device))
     dataset = Dataset.load(observed_path, skip=SCENE_FIELDS)
     grid = load_grid(shard_paths)
     c, n = grid["depth"].shape[:2]
@@ -248,7 +247,7 @@ def evaluate_grid(
                 "metric": key,
                 "source": grid["source"],
                 "n_test": int(n),
-                "precision": used,
+                "precision": resolve_precision(precision, resolve_device(compute.device), model),
                 "cells": [
                     {
                         "msppp": float(grid["msppp"][k]),

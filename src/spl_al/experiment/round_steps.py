@@ -152,7 +152,7 @@ def fit_and_evaluate(
         batch_size=cfg.eval_batch_size,
         precision=cfg.precision,
     )
-    used = resolve_precision(cfg.precision, resolve_device(compute.device))
+    used = resolve_precision(cfg.precision, resolve_device(compute.device), model)
     return Fit(model, metrics, int(images.shape[0]), train_seconds, used)
 
 

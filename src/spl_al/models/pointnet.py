@@ -366,6 +366,10 @@ class FeaturePropagation(nn.Module):
 class PointNet2Seg(nn.Module):
     """PointNet++ segmentation network over the points of range images (module docstring).
 
+    ``auto_bf16 = False``: precision "auto" keeps it fp32 on a CPU, where bf16 autocast
+    trained it slower (0.86x, ``python -m spl_al.bench training``): its time goes to
+    point sampling, neighbour search and many small layers, not to large products.
+
     Args:
         n_classes: number of classes C.
         grid: the scan grid of the images (``spl_al.scenes.raycast.ScanGrid``, or
@@ -390,6 +394,7 @@ class PointNet2Seg(nn.Module):
     task = "segmentation"
     input_kind = "range_m"
     needs_grid = True
+    auto_bf16 = False
 
     def __init__(
         self,

@@ -301,7 +301,7 @@ def train(
             f"{type(model).__name__} is tied to its scan grid: use crop_width 1."
         )
     dev = resolve_device(device)
-    precision = resolve_precision(cfg.precision, dev)
+    precision = resolve_precision(cfg.precision, dev, model)
     if cfg.num_threads is not None:
         torch.set_num_threads(cfg.num_threads)
 

@@ -39,7 +39,7 @@ def iter_forward(
     if batch_size < 1:
         raise ValueError(f"batch_size must be >= 1, got {batch_size}.")
     dev = resolve_device(device)
-    precision = resolve_precision(precision, dev)
+    precision = resolve_precision(precision, dev, model)
     model.to(dev).eval()
     n = len(depth_m)
     with torch.inference_mode():

@@ -1,0 +1,81 @@
+"""Where seed-to-seed spread comes from: ``python -m spl_al.bench spread [--only real_cls]``.
+
+A run's seed changes two things at once: which groups are labeled first (the round-0
+draw) and the training run (initialisation, batch order, augmentation). For randomly
+labeled sets of a few sizes of each dataset, this trains the configured learner
+
+- on one draw with ``--seeds`` training seeds: the spread training causes;
+- on ``--seeds`` draws, each with its own training seed (what seeds of a run do): the
+  whole spread;
+
+and gives the test set's own binomial standard error sqrt(p (1 - p) / n_test) (for
+segmentation, over test images' mIoU it is not binomial; the column is left out).
+All in accuracy (mIoU) points, std over the runs (ddof 1), with the training recipe's
+precision (``--set fit.precision=fp32`` to compare).
+"""
+
+from __future__ import annotations
+
+import argparse
+import tempfile
+from pathlib import Path
+
+import numpy as np
+
+from spl_al.bench.learnability import _default_datasets, learner_score, recipe_overrides
+from spl_al.bench.timing import markdown_table
+from spl_al.pool import initial_labeled_set
+
+
+def spread_row(dataset, size: int, model_cfg, fit_cfg, seeds, variants: bool) -> dict:
+    """Scores of ``size`` labeled groups: one draw x training seeds, draws x seeds."""
+    pool = dataset.train_idx
+    first = pool[initial_labeled_set(len(pool), size, seeds[0])]
+    train_only = [learner_score(dataset, first, model_cfg, fit_cfg, s, variants) for s in seeds]
+    draws = [train_only[0]] + [
+        learner_score(
+            dataset, pool[initial_labeled_set(len(pool), size, s)], model_cfg, fit_cfg, s, variants
+        )
+        for s in seeds[1:]
+    ]
+    return {"n": size, "train_only": train_only, "draws": draws}
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Measure the spread of the configured datasets; print the table; the exit code."""
+    parser = argparse.ArgumentParser(prog="python -m spl_al.bench spread", description=__doc__)
+    parser.add_argument("--config", type=Path, default=Path("config/config.yaml"))
+    parser.add_argument("--only", nargs="*", default=["real_cls"])
+    parser.add_argument("--sizes", type=int, nargs="*", default=[20, 80])
+    parser.add_argument("--seeds", type=int, nargs="*", default=[1, 2, 3, 4, 5, 6])
+    parser.add_argument("--variants", action="store_true", help="train on the variants too")
+    parser.add_argument("--cache", type=Path, default=None)
+    parser.add_argument("--set", nargs="*", default=[], metavar="KEY=VALUE")
+    args = parser.parse_args(argv)
+    overrides = recipe_overrides(args.set)
+    cache = args.cache or Path(tempfile.mkdtemp(prefix="spl-al-spread-"))
+    cache.mkdir(parents=True, exist_ok=True)
+    rows = []
+    for name, data, model_cfg, fit_cfg in _default_datasets(args.config, args.only, cache):
+        model_cfg = {**model_cfg, **overrides["model"]}
+        fit_cfg = {**fit_cfg, **overrides["fit"]}
+        n_test = len(data.test_idx)
+        for size in args.sizes:
+            r = spread_row(data, size, model_cfg, fit_cfg, args.seeds, args.variants)
+            mean = float(np.mean(r["draws"]))
+            binomial = (
+                f"{100 * np.sqrt(mean * (1 - mean) / n_test):.1f}"
+                if data.task == "classification"
+                else "-"
+            )
+            rows.append(
+                [name, str(size), f"{100 * mean:.1f}",
+                 f"{100 * np.std(r['train_only'], ddof=1):.1f}",
+                 f"{100 * np.std(r['draws'], ddof=1):.1f}", binomial]
+            )  # fmt: skip
+            print(" | ".join(rows[-1]), flush=True)
+    print()
+    header = ["dataset", "labeled", "mean", "sd: training only", "sd: draw + training"]
+    print(markdown_table([*header, "sd: test set (binomial)"], rows))
+    print(f"\nseeds {args.seeds}; variants: {args.variants}; overrides: {args.set or 'none'}")
+    return 0
