@@ -156,6 +156,13 @@ def fit_and_evaluate(
     return Fit(model, metrics, int(images.shape[0]), train_seconds, used)
 
 
+def _precision(setup: dict) -> str:
+    """The precision a round's fit asks for (TrainConfig's default when it says none)."""
+    from spl_al.training import TrainConfig
+
+    return setup["train"].get("fit", {}).get("precision", TrainConfig.precision)
+
+
 def dataset_facts(dataset) -> dict:
     """What a metrics record needs of a dataset, for steps that do not load it."""
     return {
@@ -185,7 +192,7 @@ def train_initial(
     Every method starts from the seed's initial labeled set and trains with the same
     seed, so all methods that use ``n_variants`` variants per group (0: observed
     images only) would train the same model; ``train_round`` reuses this one instead
-    (``initial_fit``). Writes the weights and ``out.record`` (test metrics, training
+    (``initial``). Writes the weights and ``out.record`` (test metrics, training
     images and seconds, precision, what a metrics record needs of the dataset). With
     ``out.scores`` it also scores the unlabeled pool for every strategy at once:
     every need on the observed images (batched as ``score_pool`` batches them for one
@@ -211,8 +218,7 @@ def train_initial(
     }
     if out.scores is not None:
         started = time.perf_counter()
-        precision = setup["train"].get("fit", {}).get("precision", "fp32")
-        _score_every_need(fit.model, dataset, pool_idx, m, out.scores, compute, precision)
+        _score_every_need(fit.model, dataset, pool_idx, m, out.scores, compute, _precision(setup))
         record["score_seconds"] = round(time.perf_counter() - started, 3)
     write_json(record, out.record)
     return record
@@ -382,8 +388,9 @@ def train_round(
     dataset = Dataset.load(dataset_path, skip=SCENE_FIELDS)
     fit = _round_model(dataset, pool_idx, setup, method, which, compute, log, labels_path, initial)
     save_model(fit.model, out.model)
-    precision = setup["train"].get("fit", {}).get("precision", "fp32")
-    scored = score_pool(fit.model, dataset, pool_idx, method, out.scores, compute, precision)
+    scored = score_pool(
+        fit.model, dataset, pool_idx, method, out.scores, compute, _precision(setup)
+    )
     extra = {
         "train_images": fit.train_images,
         "train_seconds": round(fit.train_seconds, 3),
@@ -467,9 +474,8 @@ def score_round(
     dataset = Dataset.load(dataset_path, skip=SCENE_FIELDS)
     method = MethodSpec(name=method_name, **{"params": {}, **setup["method"]})
     model = load_model(dataset, setup["train"]["model"], model_path)
-    precision = setup["train"].get("fit", {}).get("precision", "fp32")
     return score_pool(
-        model, dataset, read_labeled(labeled_path), method, out_path, compute, precision
+        model, dataset, read_labeled(labeled_path), method, out_path, compute, _precision(setup)
     )
 
 

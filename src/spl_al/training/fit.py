@@ -2,10 +2,12 @@
 
 from __future__ import annotations
 
+import contextlib
 import math
 import os
 import sys
 import time
+from dataclasses import dataclass
 from typing import TextIO
 
 import numpy as np
@@ -285,32 +287,13 @@ def train(
             ``cfg.steps_per_group``; None: each image is its own group).
     """
     cfg = cfg if isinstance(cfg, TrainConfig) else TrainConfig.from_dict(cfg)
-    task = getattr(model, "task", None)
-    if task not in ("classification", "segmentation"):
-        raise ValueError(
-            "model must come from spl_al.models.build_model (it has no task attribute)."
-        )
     depth_m = np.asarray(depth_m)
-    if depth_m.ndim != 3 or depth_m.shape[0] == 0:
-        raise ValueError(f"depth_m must have shape (n, H, W) with n >= 1, got {depth_m.shape}.")
-    n = depth_m.shape[0]
-    t = check_targets(task, targets, n, depth_m.shape[1:], model.n_classes)
-    if cfg.crop_width < 1 and getattr(model, "needs_grid", False):
-        raise ValueError(
-            f"crop_width {cfg.crop_width} needs a model that takes any image width; "
-            f"{type(model).__name__} is tied to its scan grid: use crop_width 1."
-        )
+    t = _check_inputs(model, depth_m, targets, cfg, groups)
     dev = resolve_device(device)
     precision = resolve_precision(cfg.precision, dev, model)
     if cfg.num_threads is not None:
         torch.set_num_threads(cfg.num_threads)
-
-    x_all = model_input(model, depth_m, valid)
-    y_all = torch.from_numpy(t)
-    if task == "segmentation":
-        y_all = torch.where(x_all[:, 1] > 0, y_all, IGNORE_INDEX)  # voids carry no label
-    x_all, y_all = x_all.to(dev), y_all.to(dev)
-
+    x_all, y_all = _training_set(model, depth_m, valid, t, dev)
     class_weight = (
         balanced_class_weights(y_all, model.n_classes, cfg.balance).to(dev)
         if cfg.balance > 0
@@ -321,8 +304,8 @@ def train(
     model.to(dev)
     if cfg.channels_last:
         model.to(memory_format=torch.channels_last)
-    gen = torch.Generator().manual_seed(int(seed))
-    mix_rng = np.random.default_rng([int(seed), 3])
+    schedule = _Schedule.of(cfg, len(depth_m), groups)
+    augment = _Augment(cfg, model, depth_m.shape[1:], seed)
     opt = SGD(
         model.parameters(),
         lr=cfg.lr,
@@ -330,101 +313,38 @@ def train(
         nesterov=cfg.nesterov and cfg.momentum > 0,
         weight_decay=cfg.weight_decay,
     )
-    batch = min(cfg.batch_size, n)
-    shift_px = tuple(round(cfg.shift * s) for s in depth_m.shape[1:])
-    crop_px = max(1, round(cfg.crop_width * depth_m.shape[2]))
-    per_epoch = max(1, n // batch)  # drop the ragged last batch; the next permutation covers it
-    if groups is not None and not 1 <= int(groups) <= n:
-        raise ValueError(f"groups must lie in [1, {n}] (the images), got {groups}.")
-    total = cfg.total_steps(n, groups)
-    n_epochs = math.ceil(total / per_epoch)
     progress = ProgressLog(log)
     progress.line(
-        f"train {task} {getattr(model, 'arch', type(model).__name__)} on {n} images "
-        f"{tuple(depth_m.shape[1:])}, {total} steps ({n_epochs} epochs x {per_epoch}), "
-        f"batch {batch}, device {dev}, precision {precision}, seed {seed}"
+        f"train {model.task} {getattr(model, 'arch', type(model).__name__)} on {len(depth_m)} "
+        f"images {tuple(depth_m.shape[1:])}, {schedule.total} steps ({schedule.n_epochs} "
+        f"epochs x {schedule.per_epoch}), batch {schedule.batch}, device {dev}, "
+        f"precision {precision}, seed {seed}"
     )
-    scaler = LossScaler(precision, dev)
+    step_fn = _Step(model, opt, LossScaler(precision, dev), precision, dev, class_weight)
     model.train()
-    step = 0
     start = time.perf_counter()
-    # Dropout draws from torch's global RNG, whose start seed differs per process: seed
-    # it from ``seed`` (in a fork, so the caller's stream is left as it was).
-    forked = (
-        [dev.index if dev.index is not None else torch.cuda.current_device()]
-        if (dev.type == "cuda")
-        else []
-    )
     try:
-        with torch.random.fork_rng(devices=forked), deterministic_algorithms():
-            torch.manual_seed(int(np.random.SeedSequence([int(seed), 1]).generate_state(1)[0]))
-            for epoch in range(1, n_epochs + 1):
-                perm = torch.randperm(n, generator=gen)
-                loss_sum = torch.zeros((), device=dev)
-                hits = torch.zeros((), device=dev)
-                units = torch.zeros((), device=dev)
-                seen = 0
-                for b in range(per_epoch):
-                    if step >= total:
+        with _seeded_global_rng(seed, dev), deterministic_algorithms():
+            step = 0
+            for epoch in range(1, schedule.n_epochs + 1):
+                perm = augment.permutation(len(depth_m))
+                stats = _EpochStats(dev)
+                for b in range(schedule.per_epoch):
+                    if step >= schedule.total:
                         break
-                    lr = cfg.lr * (
-                        0.5 * (1 + math.cos(math.pi * step / total)) if cfg.cosine else 1
-                    )
-                    for group in opt.param_groups:
-                        group["lr"] = lr
-                    idx = perm[b * batch : (b + 1) * batch]
-                    flip = (torch.rand(len(idx), generator=gen) < 0.5) if cfg.hflip else None
-                    idx = idx.to(dev)
-                    xb, yb = x_all[idx], y_all[idx]
-                    if flip is not None:
-                        flip = flip.to(dev)
-                        xb = torch.where(flip.view(-1, 1, 1, 1), xb.flip(-1), xb)
-                        if task == "segmentation":
-                            yb = torch.where(flip.view(-1, 1, 1), yb.flip(-1), yb)
-                    masks = yb if task == "segmentation" else None
-                    if max(shift_px) > 0:
-                        xb, masks = random_shift(xb, masks, shift_px, gen)
-                    if cfg.rotate_deg > 0 or cfg.scale > 0:
-                        xb, masks = random_affine(xb, masks, cfg.rotate_deg, cfg.scale, gen)
-                    if crop_px < depth_m.shape[2]:
-                        xb, masks = random_crop_columns(xb, masks, crop_px, gen)
-                    if task == "segmentation":
-                        yb = masks
-                    soft = None
-                    if task == "classification" and (cfg.mixup > 0 or cfg.label_smoothing > 0):
-                        xb, soft = _soft_targets(xb, yb, model.n_classes, cfg, mix_rng)
-                    if cfg.channels_last:
-                        xb = xb.contiguous(memory_format=torch.channels_last)
-                    with autocast(precision, dev):
-                        if soft is None:
-                            logits, yb = training_outputs(model, xb, yb)
-                        else:
-                            logits, _ = model(xb)
-                    # the losses cast the logits to fp32: the loss is never computed in 16 bits
-                    if soft is None:
-                        loss = masked_cross_entropy(logits, yb, class_weight)
-                    else:
-                        loss = soft_cross_entropy(logits, soft)
-                    opt.zero_grad(set_to_none=True)
-                    scaler.backward(loss)
-                    scaler.step(opt)
-                    with torch.no_grad():
-                        kept = yb != IGNORE_INDEX
-                        n_kept = kept.sum()
-                        loss_sum += loss.detach() * n_kept
-                        hits += ((logits.argmax(1) == yb) & kept).sum()
-                        units += n_kept
-                    seen += len(idx)
+                    lr = schedule.lr(step)
+                    opt.param_groups[0]["lr"] = lr
+                    idx = perm[b * schedule.batch : (b + 1) * schedule.batch]
+                    xb, yb, soft = augment.batch(x_all, y_all, idx)
+                    stats.add(*step_fn(xb, yb, soft))
                     step += 1
-                last = epoch == n_epochs
+                last = epoch == schedule.n_epochs
                 if cfg.log_every and (epoch % cfg.log_every == 0 or epoch == 1 or last):
                     elapsed = time.perf_counter() - start
-                    u = max(float(units), 1.0)
                     progress.line(
-                        f"epoch {epoch}/{n_epochs} step {step}/{total} "
-                        f"loss {float(loss_sum) / u:.4f} train_acc {float(hits) / u:.3f} "
-                        f"lr {lr:.4g} {elapsed:.1f}s "
-                        f"({step * batch / max(elapsed, 1e-9):.0f} img/s)"
+                        f"epoch {epoch}/{schedule.n_epochs} step {step}/{schedule.total} "
+                        f"{stats.text()} lr {lr:.4g} {elapsed:.1f}s "
+                        f"({step * schedule.batch / max(elapsed, 1e-9):.0f} img/s)"
                     )
         progress.line(f"done in {time.perf_counter() - start:.1f}s")
     finally:
@@ -433,3 +353,167 @@ def train(
     if cfg.channels_last:
         model.to(memory_format=torch.contiguous_format)
     return model
+
+
+def _check_inputs(model, depth_m: np.ndarray, targets, cfg: TrainConfig, groups) -> np.ndarray:
+    """Refuse a model, images, targets or groups ``train`` cannot use; the int64 targets."""
+    task = getattr(model, "task", None)
+    if task not in ("classification", "segmentation"):
+        raise ValueError(
+            "model must come from spl_al.models.build_model (it has no task attribute)."
+        )
+    if depth_m.ndim != 3 or depth_m.shape[0] == 0:
+        raise ValueError(f"depth_m must have shape (n, H, W) with n >= 1, got {depth_m.shape}.")
+    n = depth_m.shape[0]
+    t = check_targets(task, targets, n, depth_m.shape[1:], model.n_classes)
+    if cfg.crop_width < 1 and getattr(model, "needs_grid", False):
+        raise ValueError(
+            f"crop_width {cfg.crop_width} needs a model that takes any image width; "
+            f"{type(model).__name__} is tied to its scan grid: use crop_width 1."
+        )
+    if groups is not None and not 1 <= int(groups) <= n:
+        raise ValueError(f"groups must lie in [1, {n}] (the images), got {groups}.")
+    return t
+
+
+def _training_set(model, depth_m, valid, targets: np.ndarray, dev) -> tuple:
+    """The whole training set on the device: network inputs (n, C, H, W) and targets
+    (n,) or (n, H, W), voids of a mask set to IGNORE_INDEX (they carry no label)."""
+    x_all = model_input(model, depth_m, valid)
+    y_all = torch.from_numpy(targets)
+    if model.task == "segmentation":
+        y_all = torch.where(x_all[:, 1] > 0, y_all, IGNORE_INDEX)
+    return x_all.to(dev), y_all.to(dev)
+
+
+@dataclass(frozen=True)
+class _Schedule:
+    """Batch size, steps and the learning rate of each step (cosine from lr to 0)."""
+
+    batch: int
+    per_epoch: int
+    total: int
+    n_epochs: int
+    lr0: float
+    cosine: bool
+
+    @classmethod
+    def of(cls, cfg: TrainConfig, n: int, groups) -> _Schedule:
+        batch = min(cfg.batch_size, n)
+        per_epoch = max(1, n // batch)  # drop the ragged last batch; the next permutation covers it
+        total = cfg.total_steps(n, groups)
+        return cls(batch, per_epoch, total, math.ceil(total / per_epoch), cfg.lr, cfg.cosine)
+
+    def lr(self, step: int) -> float:
+        """lr0 * (1 + cos(pi step / total)) / 2 (cosine), else lr0."""
+        return self.lr0 * (0.5 * (1 + math.cos(math.pi * step / self.total)) if self.cosine else 1)
+
+
+class _Augment:
+    """Batch order and augmentation of one training run, all drawn from its seed: a CPU
+    ``torch.Generator`` for permutations, flips, shifts, rotations and crops, a numpy
+    generator for mixup."""
+
+    def __init__(self, cfg: TrainConfig, model, image_shape, seed: int) -> None:
+        self.cfg = cfg
+        self.task = model.task
+        self.n_classes = model.n_classes
+        self.width = image_shape[1]
+        self.shift_px = tuple(round(cfg.shift * s) for s in image_shape)
+        self.crop_px = max(1, round(cfg.crop_width * image_shape[1]))
+        self.gen = torch.Generator().manual_seed(int(seed))
+        self.mix_rng = np.random.default_rng([int(seed), 3])
+
+    def permutation(self, n: int) -> torch.Tensor:
+        """The order of one epoch's images."""
+        return torch.randperm(n, generator=self.gen)
+
+    def batch(self, x_all, y_all, idx):
+        """Images (B, C, H, W'), hard targets and, for mixup or label smoothing, the soft
+        target rows (B, C) (else None) of the images ``idx``, augmented."""
+        cfg, seg = self.cfg, self.task == "segmentation"
+        flip = (torch.rand(len(idx), generator=self.gen) < 0.5) if cfg.hflip else None
+        idx = idx.to(x_all.device)
+        xb, yb = x_all[idx], y_all[idx]
+        if flip is not None:
+            flip = flip.to(x_all.device)
+            xb = torch.where(flip.view(-1, 1, 1, 1), xb.flip(-1), xb)
+            if seg:
+                yb = torch.where(flip.view(-1, 1, 1), yb.flip(-1), yb)
+        masks = yb if seg else None
+        if max(self.shift_px) > 0:
+            xb, masks = random_shift(xb, masks, self.shift_px, self.gen)
+        if cfg.rotate_deg > 0 or cfg.scale > 0:
+            xb, masks = random_affine(xb, masks, cfg.rotate_deg, cfg.scale, self.gen)
+        if self.crop_px < self.width:
+            xb, masks = random_crop_columns(xb, masks, self.crop_px, self.gen)
+        if seg:
+            yb = masks
+        soft = None
+        if not seg and (cfg.mixup > 0 or cfg.label_smoothing > 0):
+            xb, soft = _soft_targets(xb, yb, self.n_classes, cfg, self.mix_rng)
+        if cfg.channels_last:
+            xb = xb.contiguous(memory_format=torch.channels_last)
+        return xb, yb, soft
+
+
+class _Step:
+    """One SGD step: forward under the precision's autocast, the loss in fp32 (masked
+    cross-entropy of hard targets, or soft cross-entropy), backward, update."""
+
+    def __init__(self, model, opt, scaler, precision, dev, class_weight) -> None:
+        self.model, self.opt, self.scaler = model, opt, scaler
+        self.precision, self.dev, self.class_weight = precision, dev, class_weight
+
+    def __call__(self, xb, yb, soft):
+        """Returns (logits, the targets they are scored against, loss)."""
+        with autocast(self.precision, self.dev):
+            if soft is None:
+                logits, yb = training_outputs(self.model, xb, yb)
+            else:
+                logits, _ = self.model(xb)
+        if soft is None:
+            loss = masked_cross_entropy(logits, yb, self.class_weight)
+        else:
+            loss = soft_cross_entropy(logits, soft)
+        self.opt.zero_grad(set_to_none=True)
+        self.scaler.backward(loss)
+        self.scaler.step(self.opt)
+        return logits, yb, loss
+
+
+class _EpochStats:
+    """Running loss and accuracy of an epoch over its counted units, on the device."""
+
+    def __init__(self, dev) -> None:
+        self.loss_sum = torch.zeros((), device=dev)
+        self.hits = torch.zeros((), device=dev)
+        self.units = torch.zeros((), device=dev)
+
+    def add(self, logits, yb, loss) -> None:
+        """Count one step's units (targets not IGNORE_INDEX)."""
+        with torch.no_grad():
+            kept = yb != IGNORE_INDEX
+            n_kept = kept.sum()
+            self.loss_sum += loss.detach() * n_kept
+            self.hits += ((logits.argmax(1) == yb) & kept).sum()
+            self.units += n_kept
+
+    def text(self) -> str:
+        """The epoch's mean loss and training accuracy so far, as log text."""
+        u = max(float(self.units), 1.0)
+        return f"loss {float(self.loss_sum) / u:.4f} train_acc {float(self.hits) / u:.3f}"
+
+
+@contextlib.contextmanager
+def _seeded_global_rng(seed: int, dev):
+    """Dropout draws from torch's global RNG, whose start seed differs per process: seed
+    it from ``seed`` inside a fork, so the caller's stream is left as it was."""
+    forked = (
+        [dev.index if dev.index is not None else torch.cuda.current_device()]
+        if dev.type == "cuda"
+        else []
+    )
+    with torch.random.fork_rng(devices=forked):
+        torch.manual_seed(int(np.random.SeedSequence([int(seed), 1]).generate_state(1)[0]))
+        yield
