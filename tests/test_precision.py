@@ -93,3 +93,24 @@ def test_auto_keeps_pointnet_fp32_where_bf16_does_not_pay():
     assert resolve_precision("bf16", CPU, model) == "bf16"  # asked for: given
     conv = build_model("classification", 3, width=4)
     assert resolve_precision("auto", CPU, conv) == resolve_precision("auto", CPU)
+
+
+def test_the_run_config_records_the_precision_each_dataset_ran_at(tmp_path):
+    import yaml
+
+    from spl_al.experiment.report_steps import write_run_config
+
+    config = {
+        "device": "cpu",
+        "precision": "auto",
+        "datasets": {
+            "cls": {"task": "classification", "train": {"model": {"arch": "smallcnn"}}},
+            "pc": {"task": "segmentation", "train": {"model": {"arch": "pointnet2"}}},
+            "forced": {"task": "segmentation", "precision": "fp32", "train": {"model": {}}},
+        },
+    }
+    used = write_run_config(config, tmp_path / "config.yaml")
+    auto = resolve_precision("auto", CPU)
+    assert used == {"cls": auto, "pc": "fp32", "forced": "fp32"}
+    written = yaml.safe_load((tmp_path / "config.yaml").read_text())
+    assert written["precision_used"] == used and written["precision"] == "auto"

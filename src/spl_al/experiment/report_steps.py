@@ -92,3 +92,22 @@ def make_stats(metrics_paths, experiments: dict, sweeps: dict, out: dict) -> Non
     if "budget" in experiments:
         budget = budget[budget["round"] < int(experiments["budget"]["rounds"])]
     report.save_figure(aubc_figure(budget, methods), out["aubc_png"], out["aubc_pdf"])
+
+
+def write_run_config(config: dict, out_path) -> dict:
+    """Write the run's effective configuration with ``precision_used``: per dataset, the
+    precision its models run at on the configured device (what ``precision: auto``
+    resolved to here). Returns that mapping."""
+    from spl_al.config import dataset_precision, write_config
+    from spl_al.models import model_class
+    from spl_al.training import resolve_device
+    from spl_al.training.precision import resolve_precision
+
+    device = resolve_device(config.get("device", "auto"))
+    used = {}
+    for name, entry in config["datasets"].items():
+        arch = entry["train"].get("model", {}).get("arch")
+        cls = model_class(entry["task"], arch)
+        used[name] = resolve_precision(dataset_precision(config, name), device, cls)
+    write_config({**config, "precision_used": used}, out_path)
+    return used

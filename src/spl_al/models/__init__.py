@@ -72,6 +72,15 @@ def needs_grid(task: str, arch: str | None) -> bool:
     return bool(getattr(cls, "needs_grid", False))
 
 
+def model_class(task: str, arch: str | None) -> type:
+    """The class ``build_model(task, ..., arch)`` builds (None: the task's default)."""
+    archs = ARCHS.get(task, {})
+    name = next(iter(archs)) if arch is None and archs else arch
+    if name not in archs:
+        raise ValueError(f"arch for task {task!r} must be one of {sorted(archs)}, got {arch!r}.")
+    return archs[name]
+
+
 def reset_parameters(model: nn.Module, seed: int) -> None:
     """Re-initialise ``model`` in place from ``seed``, identically on every device.
 
@@ -138,6 +147,7 @@ __all__ = [
     "SmallCNN",
     "UNet",
     "build_model",
+    "model_class",
     "model_input",
     "needs_grid",
     "reset_parameters",
