@@ -110,3 +110,18 @@ def test_a_shared_fit_of_other_images_is_refused(tmp_path):
     duis = RoundId("toy", "duis", 1, 0)
     with pytest.raises(ValueError, match="trained on 6 images, but round 0 of duis trains on 18"):
         train_round(data, labeled, setup, duis, _files(tmp_path, "m"), CPU, initial=initial)
+
+
+def test_a_last_round_writes_no_scores_and_its_query_is_refused(tmp_path):
+    from spl_al.experiment.steps import query_round
+
+    data, labeled = _dataset(tmp_path)
+    setup = {**SETUP, "method": {"strategy": "margin"}}
+    files = _files(tmp_path, "last")
+    record = train_round(data, labeled, setup, ROUND0, files, CPU, score=False)
+    assert record["score_seconds"] == 0.0 and (tmp_path / "last.pt").exists()
+    scores = StrategyInputs.load(files.scores)
+    assert scores.labeled_idx.tolist() == list(range(6)) and len(scores.unlabeled_idx) == 18
+    assert all(getattr(scores, f) is None for f in ARRAY_FIELDS)
+    with pytest.raises(ValueError, match="margin"):
+        query_round(files.scores, labeled, {"strategy": "margin"}, 2, 1, 1, tmp_path / "q.json")

@@ -83,6 +83,7 @@ rule train:
         gpu=config["gpus_per_train_job"],
     params:
         setup=train_params,
+        score=queried_after,
         device=config["device"],
     script:
         "../scripts/train.py"

@@ -160,6 +160,15 @@ def train_params(wildcards):
     }
 
 
+def queried_after(wildcards):
+    """Whether a query reads round r's scores: not in a run's last round (a human
+    oracle's rounds go on as long as labels come)."""
+    if wildcards.dataset in HUMAN:
+        return True
+    rounds = runs(wildcards.dataset).get((wildcards.method, int(wildcards.seed)), 0)
+    return int(wildcards.round) + 1 < rounds
+
+
 def query_group(wildcards):
     """Query of round r + 1 runs in one submission with round r's train and score."""
     r = int(wildcards.round) - 1

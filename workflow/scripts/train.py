@@ -24,6 +24,7 @@ run_job(
             if shared
             else None
         ),
+        score=snakemake.params.score,
     ),
     preload=() if shared else ("spl_al.data", "spl_al.scoring", "spl_al.training"),
     pass_log=True,

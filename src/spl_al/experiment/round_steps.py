@@ -346,6 +346,7 @@ def train_round(
     log=None,
     labels_path=None,
     initial: ModelFiles | None = None,
+    score: bool = True,
 ) -> dict:
     """Train on round r's labeled groups, evaluate on the test split, then score the
     unlabeled pool for the next query (``score_pool``) with the model still in memory.
@@ -362,6 +363,8 @@ def train_round(
     method that trains like this one, is used instead of training again (the same
     seed and images give the same weights). With its scores this step needs neither
     torch nor the dataset: it copies the weights and the method's part of the scores.
+    ``score``: False in a run's last round, whose scores no query reads: ``out.scores``
+    then holds the index sets only (a query on it is refused, naming what is missing).
     """
     started = time.perf_counter()
     method = MethodSpec(name=which.method, **{"params": {}, **setup["method"]})
@@ -383,14 +386,20 @@ def train_round(
             return record
 
     from spl_al.data import SCENE_FIELDS, Dataset
+    from spl_al.strategies import StrategyInputs
 
     compute.apply()
     dataset = Dataset.load(dataset_path, skip=SCENE_FIELDS)
     fit = _round_model(dataset, pool_idx, setup, method, which, compute, log, labels_path, initial)
     save_model(fit.model, out.model)
-    scored = score_pool(
-        fit.model, dataset, pool_idx, method, out.scores, compute, _precision(setup)
-    )
+    if score:
+        scored = score_pool(
+            fit.model, dataset, pool_idx, method, out.scores, compute, _precision(setup)
+        )
+    else:
+        unlabeled = np.setdiff1d(np.arange(len(dataset.train_idx)), pool_idx)
+        StrategyInputs(unlabeled_idx=unlabeled, labeled_idx=pool_idx).save(out.scores)
+        scored = {"unlabeled": int(unlabeled.size), "seconds": 0.0}
     extra = {
         "train_images": fit.train_images,
         "train_seconds": round(fit.train_seconds, 3),
