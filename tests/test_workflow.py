@@ -42,7 +42,12 @@ def effective_config(tmp_path, *args) -> dict:
     results = tmp_path / "results"
     run = snakemake(str(results / "config.yaml"), "-j1", *args, "--config", f"results={results}")
     assert run.returncode == 0, run.stderr[-3000:]
-    return yaml.safe_load((results / "config.yaml").read_text())
+    written = yaml.safe_load((results / "config.yaml").read_text())
+    # what precision each dataset's models ran at, beside the configuration itself
+    used = written.pop("precision_used")
+    assert set(used) == set(written["datasets"])
+    assert set(used.values()) <= {"fp32", "bf16", "fp16"}
+    return written
 
 
 def test_override_file_changes_only_the_values_it_names(tmp_path):
