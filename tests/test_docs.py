@@ -60,11 +60,6 @@ def test_relative_links_resolve(page):
     assert not broken, f"{page.relative_to(ROOT)}: broken links: {broken}"
 
 
-def test_no_shared_folder_references():
-    for page in PAGES:
-        assert "../shared" not in page.read_text(), page
-
-
 def test_configuration_page_is_up_to_date():
     page = ROOT / "docs" / "configuration.md"
     expected = configuration.build(ROOT, page.read_text())
