@@ -21,8 +21,8 @@ rule initial_set:
         "../envs/spl-al.yaml"
     threads: 1
     resources:
-        mem_mb=1000,
-        runtime=5,
+        mem_mb=res("initial_set", "mem_mb", 1000),
+        runtime=res("initial_set", "runtime", 5),
     params:
         al=lambda w: config["datasets"][w.dataset]["al"],
     script:
@@ -48,8 +48,8 @@ rule train_initial:
         "../envs/spl-al.yaml"
     threads: config["threads_per_job"]
     resources:
-        mem_mb=4000,
-        runtime=60,
+        mem_mb=res("train_initial", "mem_mb", 4000),
+        runtime=res("train_initial", "runtime", 60),
         gpu=config["gpus_per_train_job"],
     params:
         setup=lambda w: {"train": train_setup(config, w.dataset)},
@@ -78,8 +78,8 @@ rule train:
         "../envs/spl-al.yaml"
     threads: config["threads_per_job"]
     resources:
-        mem_mb=4000,
-        runtime=60,
+        mem_mb=res("train", "mem_mb", 4000),
+        runtime=res("train", "runtime", 60),
         gpu=config["gpus_per_train_job"],
     params:
         setup=train_params,
@@ -108,8 +108,8 @@ rule query:
         "../envs/spl-al.yaml"
     threads: 1
     resources:
-        mem_mb=4000,
-        runtime=30,
+        mem_mb=res("query", "mem_mb", 4000),
+        runtime=res("query", "runtime", 30),
     params:
         method=lambda w: dataset_method(config, w.dataset, w.method, METHODS).as_dict(),
         batch=lambda w: config["datasets"][w.dataset]["al"]["batch"],

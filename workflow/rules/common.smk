@@ -25,6 +25,13 @@ HUMAN = [d for d in DATASETS if config["datasets"][d].get("oracle") == "human"]
 SIMULATED = [d for d in DATASETS if d not in HUMAN]
 
 
+def res(rule, key, default):
+    """Resource ``key`` (mem_mb in MB, runtime in minutes) of ``rule``: the config's
+    ``resources: {rule: {key: value}}`` (config/paper.yaml sets its heavy jobs'), else
+    ``default``, what the default config needs (docs/cluster.md)."""
+    return (config.get("resources") or {}).get(rule, {}).get(key, default)
+
+
 def one_of(names):
     """A wildcard constraint matching exactly ``names`` (nothing when it is empty)."""
     return "|".join(names) or "(?!)"

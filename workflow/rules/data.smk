@@ -12,8 +12,8 @@ rule dataset:
         "../envs/spl-al.yaml"
     threads: 2
     resources:
-        mem_mb=4000,
-        runtime=30,
+        mem_mb=res("dataset", "mem_mb", 4000),
+        runtime=res("dataset", "runtime", 30),
     params:
         entry=lambda w: dataset_params(w.dataset),
     script:
@@ -33,8 +33,8 @@ rule variants_shard:
         "../envs/spl-al.yaml"
     threads: 1
     resources:
-        mem_mb=2000,
-        runtime=30,
+        mem_mb=res("variants_shard", "mem_mb", 2000),
+        runtime=res("variants_shard", "runtime", 30),
     params:
         variants=lambda w: config["datasets"][w.dataset]["variants"],
         sspi_weights=config["photon"].get("sspi_weights"),
@@ -59,8 +59,8 @@ rule variants_merge:
         "../envs/spl-al.yaml"
     threads: 1
     resources:
-        mem_mb=4000,
-        runtime=10,
+        mem_mb=res("variants_merge", "mem_mb", 4000),
+        runtime=res("variants_merge", "runtime", 10),
     script:
         "../scripts/variants_merge.py"
 
@@ -89,7 +89,7 @@ rule data_pictures:
         "../envs/spl-al.yaml"
     threads: 1
     resources:
-        mem_mb=2000,
-        runtime=10,
+        mem_mb=res("data_pictures", "mem_mb", 2000),
+        runtime=res("data_pictures", "runtime", 10),
     script:
         "../scripts/data_pictures.py"

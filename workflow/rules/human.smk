@@ -20,8 +20,8 @@ rule initial_set_human:
         "../envs/spl-al.yaml"
     threads: 1
     resources:
-        mem_mb=1000,
-        runtime=5,
+        mem_mb=res("initial_set_human", "mem_mb", 1000),
+        runtime=res("initial_set_human", "runtime", 5),
     params:
         al=lambda w: config["datasets"][w.dataset]["al"],
         seed_labels=lambda w: config["datasets"][w.dataset].get("seed_labels"),
@@ -48,8 +48,8 @@ rule query_human:
         "../envs/spl-al.yaml"
     threads: 1
     resources:
-        mem_mb=4000,
-        runtime=30,
+        mem_mb=res("query_human", "mem_mb", 4000),
+        runtime=res("query_human", "runtime", 30),
     params:
         method=lambda w: dataset_method(config, w.dataset, w.method, METHODS).as_dict(),
         batch=lambda w: config["datasets"][w.dataset]["al"]["batch"],
@@ -73,8 +73,8 @@ rule to_label_initial:
         "../envs/spl-al.yaml"
     threads: 1
     resources:
-        mem_mb=2000,
-        runtime=10,
+        mem_mb=res("to_label_initial", "mem_mb", 2000),
+        runtime=res("to_label_initial", "runtime", 10),
     params:
         labels_file=lambda w: initial_labels_file(w.dataset, w.seed),
     script:
@@ -98,8 +98,8 @@ rule to_label_round:
         "../envs/spl-al.yaml"
     threads: 1
     resources:
-        mem_mb=2000,
-        runtime=10,
+        mem_mb=res("to_label_round", "mem_mb", 2000),
+        runtime=res("to_label_round", "runtime", 10),
     params:
         labels_file=labels_file,
     script:
@@ -126,8 +126,8 @@ rule accept_labels:
         "../envs/spl-al.yaml"
     threads: 1
     resources:
-        mem_mb=2000,
-        runtime=5,
+        mem_mb=res("accept_labels", "mem_mb", 2000),
+        runtime=res("accept_labels", "runtime", 5),
     params:
         labels_file=labels_file,
     script:

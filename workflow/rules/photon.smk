@@ -13,8 +13,8 @@ rule photon_conditions:
         "../envs/spl-al.yaml"
     threads: 1
     resources:
-        mem_mb=1000,
-        runtime=5,
+        mem_mb=res("photon_conditions", "mem_mb", 1000),
+        runtime=res("photon_conditions", "runtime", 5),
     params:
         seed=config["photon"]["demo_seed"],
         method=config["photon"]["reconstruct_method"],
@@ -41,8 +41,8 @@ rule photon_real_capture:
         "../envs/spl-al.yaml"
     threads: 1
     resources:
-        mem_mb=1000,
-        runtime=5,
+        mem_mb=res("photon_real_capture", "mem_mb", 1000),
+        runtime=res("photon_real_capture", "runtime", 5),
     params:
         sspi=sspi_args("--sspi"),
     shell:

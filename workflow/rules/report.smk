@@ -1,4 +1,15 @@
 # Aggregation of every round's metrics into the paper's tables, curves and summary.
+# These jobs take seconds (docs/benchmarks.md#pipeline): on a cluster they run where
+# Snakemake runs instead of each waiting in the queue (no effect on a local run).
+
+
+localrules:
+    table,
+    curves,
+    level_curves,
+    summary,
+    run_config,
+    stats,
 
 
 rule table:
@@ -23,8 +34,8 @@ rule table:
         "../envs/spl-al.yaml"
     threads: 1
     resources:
-        mem_mb=2000,
-        runtime=10,
+        mem_mb=res("table", "mem_mb", 2000),
+        runtime=res("table", "runtime", 10),
     params:
         experiments=lambda w: config["datasets"][w.dataset]["experiments"],
         sweeps=lambda w: sweep_table_spec(
@@ -53,8 +64,8 @@ rule curves:
         "../envs/spl-al.yaml"
     threads: 1
     resources:
-        mem_mb=2000,
-        runtime=10,
+        mem_mb=res("curves", "mem_mb", 2000),
+        runtime=res("curves", "runtime", 10),
     params:
         methods=lambda w: config["datasets"][w.dataset]["experiments"]["budget"][
             "methods"
@@ -103,8 +114,8 @@ rule summary:
         "../envs/spl-al.yaml"
     threads: 1
     resources:
-        mem_mb=2000,
-        runtime=10,
+        mem_mb=res("summary", "mem_mb", 2000),
+        runtime=res("summary", "runtime", 10),
     params:
         notes=lambda w: dataset_notes(w.dataset),
     script:
@@ -122,8 +133,8 @@ rule run_config:
         "../envs/spl-al.yaml"
     threads: 1
     resources:
-        mem_mb=500,
-        runtime=5,
+        mem_mb=res("run_config", "mem_mb", 500),
+        runtime=res("run_config", "runtime", 5),
     params:
         config=config,
     script:
@@ -163,8 +174,8 @@ rule stats:
         "../envs/spl-al.yaml"
     threads: 1
     resources:
-        mem_mb=2000,
-        runtime=10,
+        mem_mb=res("stats", "mem_mb", 2000),
+        runtime=res("stats", "runtime", 10),
     params:
         experiments=lambda w: config["datasets"][w.dataset]["experiments"],
         sweeps=lambda w: sweep_table_spec(

@@ -4,6 +4,11 @@
 # the difference map.
 
 
+# the report reads small JSON files and draws two heatmaps: seconds, off the queue
+localrules:
+    robustness_report,
+
+
 rule robustness_grid:
     input:
         f"{RESULTS}/{{dataset}}/data/observed.npz",
@@ -17,8 +22,8 @@ rule robustness_grid:
         "../envs/spl-al.yaml"
     threads: 1
     resources:
-        mem_mb=3000,
-        runtime=30,
+        mem_mb=res("robustness_grid", "mem_mb", 3000),
+        runtime=res("robustness_grid", "runtime", 30),
     params:
         grid=lambda w: robustness_grid(w.dataset),
     script:
@@ -40,8 +45,8 @@ rule robustness_eval:
         "../envs/spl-al.yaml"
     threads: config["threads_per_job"]
     resources:
-        mem_mb=4000,
-        runtime=30,
+        mem_mb=res("robustness_eval", "mem_mb", 4000),
+        runtime=res("robustness_eval", "runtime", 30),
         gpu=config["gpus_per_train_job"],
     params:
         model=lambda w: config["datasets"][w.dataset]["train"]["model"],
@@ -89,7 +94,7 @@ rule robustness_report:
         "../envs/spl-al.yaml"
     threads: 1
     resources:
-        mem_mb=2000,
-        runtime=10,
+        mem_mb=res("robustness_report", "mem_mb", 2000),
+        runtime=res("robustness_report", "runtime", 10),
     script:
         "../scripts/robustness_report.py"
