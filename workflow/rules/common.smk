@@ -26,10 +26,21 @@ SIMULATED = [d for d in DATASETS if d not in HUMAN]
 
 
 def res(rule, key, default):
-    """Resource ``key`` (mem_mb in MB, runtime in minutes) of ``rule``: the config's
-    ``resources: {rule: {key: value}}`` (config/paper.yaml sets its heavy jobs'), else
-    ``default``, what the default config needs (docs/cluster.md)."""
-    return (config.get("resources") or {}).get(rule, {}).get(key, default)
+    """Resource ``key`` (mem_mb in MB, runtime in minutes) of ``rule``'s jobs: the
+    job's dataset's ``resources: {rule: {key: value}}``, else the top-level one
+    (config/paper.yaml sizes its heavy jobs so), else ``default``, what the default
+    config needs (docs/cluster.md). A function of the job's wildcards."""
+
+    def value(wildcards):
+        dataset = getattr(wildcards, "dataset", None)
+        own = config["datasets"].get(dataset, {}) if dataset else {}
+        for entry in (own.get("resources"), config.get("resources")):
+            found = (entry or {}).get(rule, {}).get(key)
+            if found is not None:
+                return found
+        return default
+
+    return value
 
 
 def one_of(names):
