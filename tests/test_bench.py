@@ -35,3 +35,43 @@ def test_learnability_runs_a_dataset_file_with_an_overridden_recipe(tmp_path, ca
     assert row.count("±") == 3  # linear reference, learner, learner with variants
     with pytest.raises(ValueError, match=r"TrainConfig\.lr"):
         learnability.main([*args, "fit.lr=-1"])
+
+
+def test_projection_counts_every_training_job_and_image(tmp_path):
+    """Two methods x one seed x two rounds, 3 epochs: round 0 of each number of variants
+    once (train_initial), each job epochs x (one batch of all its images)."""
+    from spl_al.bench import projection
+
+    override = tmp_path / "small.yaml"
+    override.write_text(
+        "datasets:\n"
+        "  real_cls:\n"
+        "    al: {initial: 10, batch: 5}\n"
+        "    variants: {n: 4}\n"
+        "    train: {fit: {epochs: 3, min_steps: 0, batch_size: 512}}\n"
+        "    experiments:\n"
+        "      budget: {methods: [random, duis], seeds: [1], rounds: 2}\n"
+        "      ablation: null\n"
+        "      sensitivity: null\n"
+    )
+    config = projection.merged_config([override])
+    counts = projection.protocol_images(config, "real_cls")
+    # random: 10 then 15 images; duis (observed + 4 variants): 50 then 75
+    assert counts["jobs"] == 4 and counts["steps"] == 4 * 3
+    assert counts["train_images"] == 3 * (10 + 15 + 50 + 75)
+    assert counts["largest_job_images"] == 3 * 75
+    n_pool, n_test = 770, 330  # 1,100 images, 30% test
+    # every round is evaluated; only round 0 is scored (round 1 is the last)
+    assert counts["forward_images"] == 4 * n_test + (n_pool - 10) + 5 * (n_pool - 10)
+
+
+def test_projection_counts_resnet18_flops_like_its_known_cost():
+    """ResNet-18 is 1.82 GMAC per 224x224 image: ~0.30 GFLOP at 64x64 forward (2 input
+    channels instead of 3 take a little off), and a training step ~3x a forward pass."""
+    from spl_al.bench import projection
+
+    config = projection.merged_config([projection.ROOT / "config" / "paper.yaml"])
+    task, model, _, _, shape, n_classes = projection.model_case(config, "real_cls")
+    train, forward = projection.flops_per_image(task, model, shape, n_classes, batch=2)
+    assert 0.25e9 < forward < 0.31e9
+    assert 2.8 < train / forward < 3.2
