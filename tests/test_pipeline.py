@@ -2,6 +2,8 @@
 
 One full run of config/ci.yaml is shared by the tests of this module (a few minutes
 on 2 cores); the other runs build subsets of it and must agree with it bit for bit.
+With SPL_AL_SLURM=1 the whole DAG also runs on a real single-node SLURM
+(scripts/slurm-local.sh) through profiles/slurm.
 """
 
 from __future__ import annotations
@@ -27,7 +29,11 @@ pytestmark = [
 CLS_METHODS = ["random", "entropy", "margin", "coreset", "badge", "duis"]
 
 
-def snakemake(results: Path, *args, check=True, profile=None, background=False):
+# wall seconds of the runs, for the report of the SLURM test
+WALL: dict[str, float] = {}
+
+
+def snakemake(results: Path, *args, check=True, profile=None, background=False, env=None):
     cmd = [sys.executable, "-m", "snakemake", "--configfile", "config/ci.yaml"]
     cmd += ["--config", f"results={results}"]
     cmd += ["--profile", profile] if profile else ["-j2"]
@@ -40,7 +46,7 @@ def snakemake(results: Path, *args, check=True, profile=None, background=False):
             stderr=subprocess.DEVNULL,
             start_new_session=True,
         )
-    run = subprocess.run(cmd, cwd=ROOT, capture_output=True, text=True)
+    run = subprocess.run(cmd, cwd=ROOT, capture_output=True, text=True, env=env)
     if check and run.returncode != 0:
         raise AssertionError(f"snakemake failed:\n{run.stdout[-3000:]}\n{run.stderr[-3000:]}")
     return run
@@ -49,7 +55,9 @@ def snakemake(results: Path, *args, check=True, profile=None, background=False):
 @pytest.fixture(scope="module")
 def ci_results(tmp_path_factory):
     results = tmp_path_factory.mktemp("ci") / "results"
+    start = time.monotonic()
     snakemake(results)
+    WALL["local"] = time.monotonic() - start
     return results
 
 
@@ -198,3 +206,68 @@ def test_slurm_profile_dry_runs_with_round_groups(tmp_path):
     out = run.stdout + run.stderr
     assert "Group job round_real_cls_duis_1_0" in out
     assert "This was a dry-run" in out
+
+
+def tables(results: Path) -> dict[str, bytes]:
+    """Every file under a dataset's tables/ folder, by its path below ``results``."""
+    return {
+        str(p.relative_to(results)): p.read_bytes()
+        for p in sorted(results.glob("*/tables/*"))
+        if p.is_file()
+    }
+
+
+@pytest.fixture
+def slurm_cluster(tmp_path):
+    """A single-node SLURM from scripts/slurm-local.sh, brought down again whatever
+    happens; the environment that reaches it (SLURM_CONF)."""
+    if os.environ.get("SPL_AL_SLURM") != "1":
+        pytest.skip("real SLURM test is opt-in: set SPL_AL_SLURM=1 (root, apt, no other SLURM)")
+    env = {**os.environ, "SPL_AL_SLURM_DIR": str(tmp_path / "slurm")}
+    script = [str(ROOT / "scripts" / "slurm-local.sh")]
+    try:
+        up = subprocess.run([*script, "up"], env=env, capture_output=True, text=True)
+        assert up.returncode == 0, f"slurm-local.sh up failed:\n{up.stdout}\n{up.stderr}"
+        yield {**env, "SLURM_CONF": str(tmp_path / "slurm" / "slurm.conf")}
+    finally:
+        down = subprocess.run([*script, "down"], env=env, capture_output=True, text=True)
+        assert down.returncode == 0, f"slurm-local.sh down failed:\n{down.stderr}"
+
+
+def test_slurm_runs_the_ci_dag_to_identical_tables(ci_results, slurm_cluster, tmp_path):
+    """The whole config/ci.yaml DAG submitted to a real slurmctld through
+    profiles/slurm: every job an sbatch job (rounds as group jobs), every table byte for
+    byte the local run's. No slurmdbd, so the plugin polls squeue."""
+    results = tmp_path / "results"
+    logs = tmp_path / "slurm_logs"
+    start = time.monotonic()
+    run = snakemake(
+        results,
+        "--slurm-status-command", "squeue",
+        "--slurm-logdir", str(logs),
+        "--slurm-keep-successful-logs",
+        profile="profiles/slurm",
+        env=slurm_cluster,
+    )  # fmt: skip
+    WALL["slurm"] = time.monotonic() - start
+    out = run.stdout + run.stderr
+    submitted = out.count("has been submitted with SLURM jobid")
+    groups = len(list(logs.glob("group_round_*")))
+    print(
+        f"\nci DAG: local -j2 {WALL.get('local', float('nan')):.0f} s, "
+        f"SLURM {WALL['slurm']:.0f} s, {submitted} sbatch jobs, {groups} round groups"
+    )
+    # every job but the local rule `all` went through sbatch (a round's train and the
+    # query it feeds as one group job), each with its SLURM log ending in success
+    job_logs = sorted(logs.glob("**/*.log"))
+    assert submitted > 50 and groups > 10 and len(job_logs) == submitted
+    for log in job_logs:
+        assert "steps (100%) done" in log.read_text(), f"{log} does not end in success"
+    # the warm job server is a local run's (the local run here started one)
+    assert (ci_results / "logs" / "warm_server.log").exists()
+    assert not (results / "logs" / "warm_server.log").exists()
+    ours, local = tables(results), tables(ci_results)
+    assert sorted(ours) == sorted(local) and len(ours) > 40
+    differ = [name for name in local if ours[name] != local[name]]
+    assert not differ, f"tables that differ from the local run: {differ}"
+    assert labeled_sets(results, "real_cls") == labeled_sets(ci_results, "real_cls")
