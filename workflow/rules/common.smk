@@ -6,7 +6,9 @@ from snakemake.logging import logger
 from snakemake.settings.types import DeploymentMethod
 
 from spl_al.config import dataset_precision, real_captures_dir, train_setup
+from spl_al.data.captures import CaptureOptions, capture_files, shard_count, shard_of
 from spl_al.data.external import folder_has_levels
+from spl_al.photon.io import CAPTURE_SUFFIXES
 from spl_al.experiment.warm import Server
 from spl_al.experiment.plan import (
     check_plan,
@@ -23,6 +25,8 @@ RUN = f"{RESULTS}/{{dataset}}/{{method}}/seed{{seed}}"
 # Datasets whose labels come from a person (oracle: human) and from the data.
 HUMAN = [d for d in DATASETS if config["datasets"][d].get("oracle") == "human"]
 SIMULATED = [d for d in DATASETS if d not in HUMAN]
+# Datasets made from raw photon captures (workflow/rules/captures.smk).
+CAPTURES = [d for d in DATASETS if config["datasets"][d]["source"] == "captures"]
 
 
 def one_of(names):
@@ -42,21 +46,51 @@ try:
     check_plan(config)
     # photon.real_captures, else $SPL_AL_REAL_CAPTURES, else None (no pictures)
     REAL_CAPTURES = real_captures_dir(config)
+    CAPTURE_FILES = {
+        d: capture_files(config["datasets"][d].get("path") or "") for d in CAPTURES
+    }
+    CAPTURE_SHARDS = {
+        d: shard_count(
+            CaptureOptions.from_dict(config["datasets"][d].get("captures")), len(f)
+        )
+        for d, f in CAPTURE_FILES.items()
+    }
 except ValueError as err:
     sys.exit(f"Error: {err}")
 
 
-def real_capture_names():
-    """Names of the real .mat captures to picture (none without a captures folder)."""
+def real_capture_files():
+    """{name: file} of the real captures to picture (none without a captures folder):
+    every file ``load_capture`` reads, named by its stem."""
     if REAL_CAPTURES is None:
-        return []
-    return sorted(p.stem for p in REAL_CAPTURES.glob("*.mat"))
+        return {}
+    return {
+        p.stem: str(p)
+        for p in sorted(REAL_CAPTURES.iterdir())
+        if p.is_file() and p.suffix.lower() in CAPTURE_SUFFIXES
+    }
 
 
 def photon_pictures():
     return [f"{RESULTS}/photon/conditions.png"] + expand(
-        f"{RESULTS}/photon/real/{{capture}}.png", capture=real_capture_names()
+        f"{RESULTS}/photon/real/{{capture}}.png", capture=list(real_capture_files())
     )
+
+
+def capture_shards(dataset):
+    return CAPTURE_SHARDS[dataset]
+
+
+def capture_inputs(dataset, shard):
+    """The capture files reconstruction shard ``shard`` of a captures dataset reads."""
+    root = Path(config["datasets"][dataset]["path"])
+    files = shard_of(CAPTURE_FILES[dataset], CAPTURE_SHARDS[dataset], shard)
+    return [str(root / name) for name in files]
+
+
+def capture_release(dataset):
+    """The reconstructed release-layout folder of a captures dataset (none otherwise)."""
+    return f"{RESULTS}/{dataset}/captures/release" if dataset in CAPTURES else []
 
 
 def n_shards(dataset):
@@ -177,8 +211,11 @@ def query_group(wildcards):
 
 def has_levels(dataset):
     """Whether the dataset's images carry MSPPP levels: synthetic data and stand-ins do,
-    a folder only when its files hold them or ``levels_file`` assigns them."""
+    a folder only when its files hold them or ``levels_file`` assigns them; captures get
+    theirs from their own photons."""
     entry = config["datasets"][dataset]
+    if entry["source"] == "captures":
+        return True
     standin = entry["source"] == "folder" and not entry.get("path")
     if entry["source"] == "synthetic" or standin or entry.get("levels_file"):
         return True
