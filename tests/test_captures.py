@@ -95,3 +95,32 @@ def test_bad_folder_options_and_captures(folder, tmp_path):
     with pytest.raises(ValueError, match=r"x\.npz: cannot tell which axis"):
         reconstruct_shard(bad, ["x.npz"], tmp_path / "s.npz", CaptureOptions())
     assert not (tmp_path / "s.npz").exists()
+
+
+def test_unlabeled_captures_for_a_human_oracle(tmp_path):
+    from spl_al.data import Dataset
+    from spl_al.experiment.data_steps import make_dataset
+
+    scans = tmp_path / "scans"
+    scans.mkdir()
+    for j, msppp in enumerate((2.0, 5.0, 10.0, 2.0, 5.0, 10.0)):
+        events = simulate_capture(disc_scene(16, 16, 3.0, 6.0), msppp, 1.0, SENSOR, seed=j)
+        write_timestamps_mat(scans / f"scan{j}.mat", events, 80)
+    entry = {"task": "classification", "source": "captures", "oracle": "human"}
+    entry |= {"path": str(scans), "classes": ["car", "wall"], "captures": {"shards": 1}}
+    seed = tmp_path / "seed.csv"
+    seed.write_text("file,label,split\nscan0.npz,car,test\nscan1.npz,wall,test\n")
+    entry["seed_labels"] = str(seed)
+    options = CaptureOptions.from_dict(entry["captures"])
+    reconstruct_shard(scans, capture_files(scans), tmp_path / "s.npz", options)
+    release = write_release([tmp_path / "s.npz"], tmp_path / "release", options)
+    make_dataset(entry, tmp_path / "observed.npz", release_dir=release)
+    dataset = Dataset.load(tmp_path / "observed.npz")
+    assert dataset.split.tolist() == ["test", "test"] + ["train"] * 4
+    assert dataset.level.tolist() == ["low", "medium", "high"] * 2
+
+    (release / "sub").mkdir()
+    (release / "scan5.npz").rename(release / "sub" / "scan5.npz")
+    with pytest.raises(ValueError, match="with oracle: human the captures must lie directly"):
+        make_dataset(entry, tmp_path / "observed2.npz", release_dir=release)
+    assert not (tmp_path / "observed2.npz").exists()

@@ -64,9 +64,20 @@ def make_dataset(entry: dict, out_path, release_dir=None) -> dict:
 
 
 def _captures_as_folder(entry: dict, release_dir) -> dict:
-    """A captures entry as the folder entry of its reconstructions (labeled or not)."""
+    """A captures entry as the folder entry of its reconstructions (labeled or not).
+
+    With ``oracle: human`` the reconstructions are an unlabeled folder, read flat: its
+    ``seed_labels`` name the frames ``{capture stem}.npz``.
+    """
     if release_dir is None:
         raise ValueError("a captures dataset needs the folder of its reconstructions.")
+    nested = sorted(p for p in Path(release_dir).rglob("*.npz") if p.parent != Path(release_dir))
+    if entry.get("oracle") == "human" and nested:
+        raise ValueError(
+            f"config key 'path': with oracle: human the captures must lie directly in "
+            f"{entry['path']} (an unlabeled pool is read flat); found "
+            f"{nested[0].relative_to(release_dir).parent}/."
+        )
     return {
         **entry,
         "source": "unlabeled" if entry.get("oracle") == "human" else "folder",
