@@ -98,7 +98,9 @@ def load_capture(
     )
 
 
-def _load_mat(path: Path, format: str, *, key, unit, unit_s, bin_width_s, gate_s, **rest):
+def _load_mat(
+    path: Path, format: str, *, key, unit, unit_s, bin_width_s, gate_s, shape, order, time_axis
+):
     from spl_al.photon.formats.cube import cube_names, read_cube
     from spl_al.photon.formats.matfile import describe_variables, read_mat
     from spl_al.photon.formats.sparse_mat import read_sparse_mat, sparse_variables
@@ -117,8 +119,8 @@ def _load_mat(path: Path, format: str, *, key, unit, unit_s, bin_width_s, gate_s
             path,
             variables,
             key=key,
-            shape=rest["shape"],
-            order=rest["order"],
+            shape=shape,
+            order=order,
             bin_width_s=bin_width_s,
             unit_s=unit_s,
         )
@@ -136,7 +138,7 @@ def _load_mat(path: Path, format: str, *, key, unit, unit_s, bin_width_s, gate_s
         path,
         variables,
         key=key,
-        time_axis=rest["time_axis"],
+        time_axis=time_axis,
         bin_width_s=bin_width_s,
         unit_s=unit_s,
     )
