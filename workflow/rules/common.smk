@@ -291,11 +291,33 @@ def labels_file(wildcards):
     return f"{labels_dir(wildcards.dataset)}/{wildcards.method}/seed{wildcards.seed}/round{r}.csv"
 
 
+def initial_labels_export(dataset, seed):
+    """Where round 0's Label Studio JSON export may be saved instead of its CSV."""
+    return f"{labels_dir(dataset)}/initial/seed{seed}.json"
+
+
+def labels_export(wildcards):
+    """Where the person may save the batch's Label Studio JSON export instead."""
+    r = int(wildcards.round)
+    if r == 0:
+        return initial_labels_export(wildcards.dataset, wildcards.seed)
+    folder = labels_dir(wildcards.dataset)
+    return f"{folder}/{wildcards.method}/seed{wildcards.seed}/round{r}.json"
+
+
 def labels_file_if_given(wildcards):
-    """The label file as an input once it exists (so editing it reruns what follows);
-    before that accept_labels runs without it and stops with a message naming it."""
-    path = labels_file(wildcards)
-    return [path] if Path(path).is_file() else []
+    """The label files (CSV, Label Studio export) as inputs once they exist (so editing
+    one reruns what follows); before that accept_labels runs without them and stops
+    with a message naming them."""
+    paths = (labels_file(wildcards), labels_export(wildcards))
+    return [path for path in paths if Path(path).is_file()]
+
+
+def batch_model(wildcards):
+    """The model that chose round r's batch (round r - 1's): its predictions are the
+    batch's Label Studio pre-annotations. Round 0's batch has none."""
+    r = int(wildcards.round)
+    return {"model": round_file(wildcards, r - 1, "model.pt")} if r > 0 else {}
 
 
 def labeling_request(wildcards):
