@@ -276,6 +276,15 @@ def listed_samples(path, dataset: Dataset) -> np.ndarray:
     return np.asarray(out, dtype=np.int64)
 
 
+def lists_training_rows(seed_labels) -> bool:
+    """Whether a ``seed_labels`` CSV labels training samples (a row with ``split`` train
+    or empty): then they are round 0's labels; else round 0 is a batch to label."""
+    rows, _ = _read_rows(Path(seed_labels))
+    return any(
+        ((row.get("split") or "train").strip().lower() or "train") == "train" for _, row in rows
+    )
+
+
 def _read_rows(path: Path) -> tuple[list[tuple[int, dict]], list[str]]:
     try:
         with open(path, newline="", encoding="utf-8-sig") as f:

@@ -8,6 +8,7 @@ from snakemake.settings.types import DeploymentMethod
 from spl_al.config import dataset_precision, real_captures_dir, train_setup
 from spl_al.data.captures import CaptureOptions, capture_files, shard_count, shard_of
 from spl_al.data.external import folder_has_levels
+from spl_al.labeling import lists_training_rows
 from spl_al.photon.io import CAPTURE_SUFFIXES
 from spl_al.experiment.warm import Server
 from spl_al.experiment.plan import (
@@ -279,8 +280,10 @@ def labels_dir(dataset):
 
 def initial_labels_file(dataset, seed):
     """Round 0's labels: seed_labels when it lists training samples, else a file per seed."""
-    entry = config["datasets"][dataset]
-    return entry.get("seed_labels") or f"{labels_dir(dataset)}/initial/seed{seed}.csv"
+    given = config["datasets"][dataset].get("seed_labels")
+    if given and (not Path(given).is_file() or lists_training_rows(given)):
+        return given  # a missing file is reported by the dataset step, naming the key
+    return f"{labels_dir(dataset)}/initial/seed{seed}.csv"
 
 
 def labels_file(wildcards):
