@@ -24,6 +24,7 @@ except ValueError as err:
 
 include: "workflow/rules/common.smk"
 include: "workflow/rules/photon.smk"
+include: "workflow/rules/captures.smk"
 include: "workflow/rules/data.smk"
 include: "workflow/rules/al.smk"
 include: "workflow/rules/human.smk"

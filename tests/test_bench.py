@@ -75,3 +75,22 @@ def test_projection_counts_resnet18_flops_like_its_known_cost():
     train, forward = projection.flops_per_image(task, model, shape, n_classes, batch=2)
     assert 0.25e9 < forward < 0.31e9
     assert 2.8 < train / forward < 3.2
+
+
+def test_capture_bench_reads_every_format_back_to_its_simulation(capsys, monkeypatch):
+    from spl_al.bench import captures
+
+    monkeypatch.delenv("SPL_AL_REAL_CAPTURES", raising=False)
+    assert captures.main(["--repeats", "1"]) == 0
+    rows = [line.split("|")[1:-1] for line in capsys.readouterr().out.splitlines()]
+    rows = [[cell.strip() for cell in row] for row in rows if len(row) == 11][2:]
+    assert [row[0] for row in rows] == [
+        "sparse_mat",
+        "timestamps_mat (4 ps)",
+        "cube .npz",
+        "cube HDF5",
+        "ptu",
+    ]
+    for row in rows:  # sigma 520 ps, MSPPP 5, SBR 1 simulated
+        assert abs(float(row[8]) / 520 - 1) < 0.1 and abs(float(row[9]) / 5 - 1) < 0.1
+        assert abs(float(row[10]) - 1) < 0.1 and row[2] == rows[0][2]

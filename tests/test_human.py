@@ -201,3 +201,15 @@ def test_segmentation_batch_proposes_mask_paths_and_lists_class_colours(tmp_path
     lines = (out / "classes.csv").read_text().splitlines()
     assert lines[0] == "index,name,colour" and lines[1].startswith("0,car,#")
     assert lines[-1] == "255,(no label),#000000"
+
+
+def test_seed_labels_with_only_test_rows_leave_round_0_to_a_batch(tmp_path):
+    from spl_al.labeling import lists_training_rows
+
+    csv = tmp_path / "seed.csv"
+    csv.write_text("file,label,split\na.npz,car,test\nb.npz,wall,test\n")
+    assert not lists_training_rows(csv)
+    csv.write_text("file,label,split\na.npz,car,test\nb.npz,wall,\n")
+    assert lists_training_rows(csv)
+    csv.write_text("file,label\na.npz,car\n")  # no split column: every row trains
+    assert lists_training_rows(csv)

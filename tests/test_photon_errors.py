@@ -111,7 +111,9 @@ def test_load_mat_names_the_file_and_the_problem(tmp_path):
 
     other = tmp_path / "other.mat"
     sio.savemat(other, {"photons": sparse.csc_matrix(np.ones((16, 4)))})
-    with pytest.raises(ValueError, match=r"no variable 'spad'; found \['photons'\]"):
+    with pytest.raises(
+        ValueError, match=r"no sparse matrix 'spad'; sparse matrices found: \['photons'\]"
+    ):
         load_mat(other)
     with pytest.raises(ValueError, match="expected 4096 pixels"):
         load_mat(other, key="photons")

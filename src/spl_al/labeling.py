@@ -15,6 +15,11 @@ of a mask, relative to the label file's folder: an 8-bit greyscale PNG or a ``.n
 of the image's shape, each pixel a class index (``classes.csv``) or 255 = no label.
 Rows whose ``split`` column says ``test`` are skipped (they label the test split of
 an unlabeled folder, see ``spl_al.data.unlabeled``); other columns are ignored.
+
+Label Studio: every batch is also a Label Studio import (``label_studio.xml`` and
+``label_studio.json``, with the model's predictions as pre-annotations when
+``write_batch`` is given them), and a label file ending in ``.json`` is read as the
+project's JSON export (``spl_al.label_studio``), with the same checks.
 """
 
 from __future__ import annotations
@@ -42,14 +47,29 @@ def sample_file(dataset: Dataset, index: int) -> str:
     return str(files[index]) if isinstance(files, list) and len(files) == len(dataset) else ""
 
 
-def write_batch(dataset: Dataset, pool_indices, out_dir, labels_file, mask_dir=None) -> Path:
+def write_batch(
+    dataset: Dataset,
+    pool_indices,
+    out_dir,
+    labels_file,
+    mask_dir=None,
+    export_file=None,
+    probs=None,
+    model_version: str = "",
+) -> Path:
     """Write the labeling batch of the training-pool groups ``pool_indices`` to ``out_dir``.
 
     ``labels_file`` is where the filled ``to_label.csv`` must be saved (named in the
     batch's README.txt); ``mask_dir`` (segmentation) the folder, relative to it,
-    that ``to_label.csv`` proposes for the masks. The folder appears complete or not
-    at all (written beside it, then renamed).
+    that ``to_label.csv`` proposes for the masks; ``export_file`` where a Label Studio
+    JSON export may be saved instead (default: ``labels_file`` ending in ``.json``).
+    ``probs``: the probabilities the current model gives each sample ((n, C), or
+    (n, C, H, W) for segmentation), which become the Label Studio tasks'
+    pre-annotations, tagged ``model_version``; None writes tasks without them. The
+    folder appears complete or not at all (written beside it, then renamed).
     """
+    from spl_al.label_studio import write_import
+
     out_dir = Path(out_dir)
     pool_indices = np.asarray(pool_indices, dtype=np.int64)
     samples = dataset.train_idx[pool_indices]
@@ -60,6 +80,8 @@ def write_batch(dataset: Dataset, pool_indices, out_dir, labels_file, mask_dir=N
         _sample_picture(dataset, int(i), tmp / f"sample{dataset.uid[i]}.png")
     _batch_sheet(dataset, samples, tmp / "contact_sheet.png")
     _write_classes(dataset, tmp / "classes.csv")
+    write_import(dataset, samples, tmp, probs, model_version)
+    export_file = export_file or Path(labels_file).with_suffix(".json")
     seg = dataset.task == "segmentation"
     mask_dir = mask_dir or f"{Path(labels_file).stem}_masks"
     with open(tmp / "to_label.csv", "w", newline="", encoding="utf-8") as f:
@@ -81,7 +103,12 @@ def write_batch(dataset: Dataset, pool_indices, out_dir, labels_file, mask_dir=N
         f"{len(samples)} samples to label: sample{{id}}.png shows each one's observed SPL "
         "depth image and its synthetic variants (colour: depth in metres, black: no "
         f"return); contact_sheet.png shows the whole batch.\nFill in to_label.csv ({what}) "
-        f"and save it as {labels_file}, then run Snakemake again.\n",
+        f"and save it as {labels_file}, then run Snakemake again.\nOr label the batch in "
+        "Label Studio: create a project whose labeling interface is label_studio.xml, import "
+        "label_studio.json (the tasks"
+        + (", with the model's predictions to correct" if probs is not None else "")
+        + f"), label every task, export the project as JSON and save the export as "
+        f"{export_file}.\n",
         encoding="utf-8",
     )
     if out_dir.exists():
@@ -168,9 +195,14 @@ def read_label_file(path, dataset: Dataset, pool_indices) -> np.ndarray:
     (n, H, W) uint8 masks. Every problem (unreadable file, missing column, a sample
     that is unknown, not in the batch, listed twice or missing, an unknown class, a
     mask that is missing, of the wrong shape or with values outside the classes) is a
-    ValueError naming the file, its line and the value.
+    ValueError naming the file, its line and the value. A ``.json`` file is a Label
+    Studio JSON export (``spl_al.label_studio.read_export``, checked the same way).
     """
     path = Path(path)
+    if path.suffix.lower() == ".json":
+        from spl_al.label_studio import read_export
+
+        return read_export(path, dataset, pool_indices)
     rows, header = _read_rows(path)
     seg = dataset.task == "segmentation"
     value_column = "mask" if seg else "label"
@@ -242,6 +274,15 @@ def listed_samples(path, dataset: Dataset) -> np.ndarray:
             raise ValueError(f"{path} line {line}: {key} {name!r} is not in the training pool.")
         out.append(pool_of[name])
     return np.asarray(out, dtype=np.int64)
+
+
+def lists_training_rows(seed_labels) -> bool:
+    """Whether a ``seed_labels`` CSV labels training samples (a row with ``split`` train
+    or empty): then they are round 0's labels; else round 0 is a batch to label."""
+    rows, _ = _read_rows(Path(seed_labels))
+    return any(
+        ((row.get("split") or "train").strip().lower() or "train") == "train" for _, row in rows
+    )
 
 
 def _read_rows(path: Path) -> tuple[list[tuple[int, dict]], list[str]]:

@@ -6,7 +6,10 @@ from snakemake.logging import logger
 from snakemake.settings.types import DeploymentMethod
 
 from spl_al.config import dataset_precision, real_captures_dir, train_setup
+from spl_al.data.captures import CaptureOptions, capture_files, shard_count, shard_of
 from spl_al.data.external import folder_has_levels
+from spl_al.labeling import lists_training_rows
+from spl_al.photon.io import CAPTURE_SUFFIXES
 from spl_al.experiment.warm import Server
 from spl_al.experiment.plan import (
     check_plan,
@@ -23,6 +26,8 @@ RUN = f"{RESULTS}/{{dataset}}/{{method}}/seed{{seed}}"
 # Datasets whose labels come from a person (oracle: human) and from the data.
 HUMAN = [d for d in DATASETS if config["datasets"][d].get("oracle") == "human"]
 SIMULATED = [d for d in DATASETS if d not in HUMAN]
+# Datasets made from raw photon captures (workflow/rules/captures.smk).
+CAPTURES = [d for d in DATASETS if config["datasets"][d]["source"] == "captures"]
 
 
 def res(rule, key, default):
@@ -60,21 +65,51 @@ try:
     check_plan(config)
     # photon.real_captures, else $SPL_AL_REAL_CAPTURES, else None (no pictures)
     REAL_CAPTURES = real_captures_dir(config)
+    CAPTURE_FILES = {
+        d: capture_files(config["datasets"][d].get("path") or "") for d in CAPTURES
+    }
+    CAPTURE_SHARDS = {
+        d: shard_count(
+            CaptureOptions.from_dict(config["datasets"][d].get("captures")), len(f)
+        )
+        for d, f in CAPTURE_FILES.items()
+    }
 except ValueError as err:
     sys.exit(f"Error: {err}")
 
 
-def real_capture_names():
-    """Names of the real .mat captures to picture (none without a captures folder)."""
+def real_capture_files():
+    """{name: file} of the real captures to picture (none without a captures folder):
+    every file ``load_capture`` reads, named by its stem."""
     if REAL_CAPTURES is None:
-        return []
-    return sorted(p.stem for p in REAL_CAPTURES.glob("*.mat"))
+        return {}
+    return {
+        p.stem: str(p)
+        for p in sorted(REAL_CAPTURES.iterdir())
+        if p.is_file() and p.suffix.lower() in CAPTURE_SUFFIXES
+    }
 
 
 def photon_pictures():
     return [f"{RESULTS}/photon/conditions.png"] + expand(
-        f"{RESULTS}/photon/real/{{capture}}.png", capture=real_capture_names()
+        f"{RESULTS}/photon/real/{{capture}}.png", capture=list(real_capture_files())
     )
+
+
+def capture_shards(dataset):
+    return CAPTURE_SHARDS[dataset]
+
+
+def capture_inputs(dataset, shard):
+    """The capture files reconstruction shard ``shard`` of a captures dataset reads."""
+    root = Path(config["datasets"][dataset]["path"])
+    files = shard_of(CAPTURE_FILES[dataset], CAPTURE_SHARDS[dataset], shard)
+    return [str(root / name) for name in files]
+
+
+def capture_release(dataset):
+    """The reconstructed release-layout folder of a captures dataset (none otherwise)."""
+    return f"{RESULTS}/{dataset}/captures/release" if dataset in CAPTURES else []
 
 
 def n_shards(dataset):
@@ -195,8 +230,11 @@ def query_group(wildcards):
 
 def has_levels(dataset):
     """Whether the dataset's images carry MSPPP levels: synthetic data and stand-ins do,
-    a folder only when its files hold them or ``levels_file`` assigns them."""
+    a folder only when its files hold them or ``levels_file`` assigns them; captures get
+    theirs from their own photons."""
     entry = config["datasets"][dataset]
+    if entry["source"] == "captures":
+        return True
     standin = entry["source"] == "folder" and not entry.get("path")
     if entry["source"] == "synthetic" or standin or entry.get("levels_file"):
         return True
@@ -260,8 +298,10 @@ def labels_dir(dataset):
 
 def initial_labels_file(dataset, seed):
     """Round 0's labels: seed_labels when it lists training samples, else a file per seed."""
-    entry = config["datasets"][dataset]
-    return entry.get("seed_labels") or f"{labels_dir(dataset)}/initial/seed{seed}.csv"
+    given = config["datasets"][dataset].get("seed_labels")
+    if given and (not Path(given).is_file() or lists_training_rows(given)):
+        return given  # a missing file is reported by the dataset step, naming the key
+    return f"{labels_dir(dataset)}/initial/seed{seed}.csv"
 
 
 def labels_file(wildcards):
@@ -272,11 +312,33 @@ def labels_file(wildcards):
     return f"{labels_dir(wildcards.dataset)}/{wildcards.method}/seed{wildcards.seed}/round{r}.csv"
 
 
+def initial_labels_export(dataset, seed):
+    """Where round 0's Label Studio JSON export may be saved instead of its CSV."""
+    return f"{labels_dir(dataset)}/initial/seed{seed}.json"
+
+
+def labels_export(wildcards):
+    """Where the person may save the batch's Label Studio JSON export instead."""
+    r = int(wildcards.round)
+    if r == 0:
+        return initial_labels_export(wildcards.dataset, wildcards.seed)
+    folder = labels_dir(wildcards.dataset)
+    return f"{folder}/{wildcards.method}/seed{wildcards.seed}/round{r}.json"
+
+
 def labels_file_if_given(wildcards):
-    """The label file as an input once it exists (so editing it reruns what follows);
-    before that accept_labels runs without it and stops with a message naming it."""
-    path = labels_file(wildcards)
-    return [path] if Path(path).is_file() else []
+    """The label files (CSV, Label Studio export) as inputs once they exist (so editing
+    one reruns what follows); before that accept_labels runs without them and stops
+    with a message naming them."""
+    paths = (labels_file(wildcards), labels_export(wildcards))
+    return [path for path in paths if Path(path).is_file()]
+
+
+def batch_model(wildcards):
+    """The model that chose round r's batch (round r - 1's): its predictions are the
+    batch's Label Studio pre-annotations. Round 0's batch has none."""
+    r = int(wildcards.round)
+    return {"model": round_file(wildcards, r - 1, "model.pt")} if r > 0 else {}
 
 
 def labeling_request(wildcards):

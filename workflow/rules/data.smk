@@ -2,6 +2,8 @@
 
 
 rule dataset:
+    input:
+        release=lambda w: capture_release(w.dataset),
     output:
         f"{RESULTS}/{{dataset}}/data/observed.npz",
     log:
@@ -16,6 +18,7 @@ rule dataset:
         runtime=res("dataset", "runtime", 30),
     params:
         entry=lambda w: dataset_params(w.dataset),
+        release=lambda w: capture_release(w.dataset) or None,
     script:
         "../scripts/make_dataset.py"
 

@@ -1,7 +1,9 @@
 # Human oracle (datasets with `oracle: human`): every labeled set is a labeling batch
 # a person labels. initial_set_human -> to_label_initial; query_human -> to_label_round;
-# accept_labels checks the filled label file and writes the round's labeled set and
-# labels. Until the label file exists, accept_labels stops the run naming it.
+# accept_labels checks the filled label file (or the Label Studio export saved in its
+# place) and writes the round's labeled set and labels. Until one exists,
+# accept_labels stops the run naming them. From round 1 on a batch's Label Studio
+# tasks carry the predictions of the model that chose it (batch_model).
 
 
 rule initial_set_human:
@@ -77,12 +79,16 @@ rule to_label_initial:
         runtime=res("to_label_initial", "runtime", 10),
     params:
         labels_file=lambda w: initial_labels_file(w.dataset, w.seed),
+        export_file=lambda w: initial_labels_export(w.dataset, w.seed),
+        model_cfg=None,
+        model_version="",
     script:
         "../scripts/label_batch.py"
 
 
 rule to_label_round:
     input:
+        unpack(batch_model),
         data=f"{RESULTS}/{{dataset}}/data/dataset.npz",
         request=f"{RUN}/round{{round}}/query.json",
     output:
@@ -102,6 +108,9 @@ rule to_label_round:
         runtime=res("to_label_round", "runtime", 10),
     params:
         labels_file=labels_file,
+        export_file=labels_export,
+        model_cfg=lambda w: config["datasets"][w.dataset]["train"].get("model", {}),
+        model_version=lambda w: f"{w.method} seed{w.seed} round{int(w.round) - 1}",
     script:
         "../scripts/label_batch.py"
 
@@ -130,5 +139,6 @@ rule accept_labels:
         runtime=res("accept_labels", "runtime", 5),
     params:
         labels_file=labels_file,
+        export_file=labels_export,
     script:
         "../scripts/accept_labels.py"

@@ -26,7 +26,7 @@ rule photon_conditions:
 
 rule photon_real_capture:
     input:
-        f"{REAL_CAPTURES}/{{capture}}.mat",
+        lambda w: real_capture_files()[w.capture],
     output:
         report(
             f"{RESULTS}/photon/real/{{capture}}.png",

@@ -11,6 +11,7 @@ run_job(
         previous_labels=snakemake.input.before or None,
         out_labeled=snakemake.output.labeled,
         out_labels=snakemake.output.labels,
+        export_file=snakemake.params.export_file,
     ),
     preload=("spl_al.data", "spl_al.labeling"),
     show=True,

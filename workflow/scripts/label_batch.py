@@ -8,7 +8,11 @@ run_job(
         request_path=snakemake.input.request,
         labels_file=snakemake.params.labels_file,
         out_dir=snakemake.output[0],
+        export_file=snakemake.params.export_file,
+        model_path=snakemake.input.get("model"),
+        model_cfg=snakemake.params.model_cfg,
+        model_version=snakemake.params.model_version,
     ),
-    preload=("matplotlib.pyplot", "spl_al.labeling"),
+    preload=("matplotlib.pyplot", "spl_al.labeling", "spl_al.label_studio"),
     show=True,
 )

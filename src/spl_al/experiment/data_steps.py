@@ -12,16 +12,20 @@ from pathlib import Path
 import numpy as np
 
 
-def make_dataset(entry: dict, out_path) -> dict:
+def make_dataset(entry: dict, out_path, release_dir=None) -> dict:
     """Synthesize (or import) a dataset's observed images and save them to ``out_path``.
 
-    ``entry`` is the dataset's config: ``task``, ``source`` ("synthetic" or "folder"),
-    ``path``, ``depth_key``, ``reflectance_key``, ``levels_file`` and ``n_per_class``
-    for folders (``spl_al.data.load_folder``), ``standin`` (synthesize when the folder is not
-    given) and ``synthesis`` (keyword arguments of the generator).
+    ``entry`` is the dataset's config: ``task``, ``source`` ("synthetic", "folder",
+    "unlabeled" or "captures"), ``path``, ``depth_key``, ``reflectance_key``,
+    ``levels_file`` and ``n_per_class`` for folders (``spl_al.data.load_folder``),
+    ``standin`` (synthesize when the folder is not given) and ``synthesis`` (keyword
+    arguments of the generator). A captures dataset is read from ``release_dir``, the
+    release-layout folder ``release_captures`` made of its captures.
     """
     from spl_al.data import load_folder, make_classification_dataset, make_segmentation_dataset
 
+    if entry["source"] == "captures":
+        entry = _captures_as_folder(entry, release_dir)
     synthesis = dict(entry.get("synthesis", {}))
     if "image_shape" in synthesis:
         synthesis["image_shape"] = tuple(synthesis["image_shape"])
@@ -57,6 +61,52 @@ def make_dataset(entry: dict, out_path) -> dict:
     dataset.meta["synthetic_standin"] = standin
     dataset.save(out_path)
     return {"samples": len(dataset), "standin": standin}
+
+
+def _captures_as_folder(entry: dict, release_dir) -> dict:
+    """A captures entry as the folder entry of its reconstructions (labeled or not).
+
+    With ``oracle: human`` the reconstructions are an unlabeled folder, read flat: its
+    ``seed_labels`` name the frames ``{capture stem}.npz``.
+    """
+    if release_dir is None:
+        raise ValueError("a captures dataset needs the folder of its reconstructions.")
+    nested = sorted(p for p in Path(release_dir).rglob("*.npz") if p.parent != Path(release_dir))
+    if entry.get("oracle") == "human" and nested:
+        raise ValueError(
+            f"config key 'path': with oracle: human the captures must lie directly in "
+            f"{entry['path']} (an unlabeled pool is read flat); found "
+            f"{nested[0].relative_to(release_dir).parent}/."
+        )
+    return {
+        **entry,
+        "source": "unlabeled" if entry.get("oracle") == "human" else "folder",
+        "path": str(release_dir),
+        "depth_key": "depth_ssp",
+        "reflectance_key": "intensity",
+        "levels_file": None,
+    }
+
+
+def reconstruct_captures(entry: dict, shard: int, out_path, sspi_weights=None) -> dict:
+    """Reconstruct shard ``shard`` of a captures dataset's files (``spl_al.data.captures``)."""
+    from spl_al.data import captures
+
+    options = captures.CaptureOptions.from_dict(entry.get("captures"))
+    every = captures.capture_files(entry["path"])
+    files = captures.shard_of(every, captures.shard_count(options, len(every)), shard)
+    start = time.perf_counter()
+    n = captures.reconstruct_shard(entry["path"], files, out_path, options, sspi_weights)
+    return {"captures": n, "seconds": round(time.perf_counter() - start, 2)}
+
+
+def release_captures(entry: dict, shard_paths, out_dir) -> dict:
+    """The release-layout folder of a captures dataset's reconstructions, levels split."""
+    from spl_al.data.captures import CaptureOptions, write_release
+
+    options = CaptureOptions.from_dict(entry.get("captures"))
+    write_release(shard_paths, out_dir, options)
+    return {"frames": sum(1 for _ in Path(out_dir).rglob("*.npz"))}
 
 
 def _unlabeled_dataset(entry: dict, synthesis: dict):

@@ -7,8 +7,10 @@ where labels enter:
   samples, else ``al.initial`` samples drawn at random (never stratified: that
   would read labels nobody has given);
 - every queried set (round 0's included) becomes a labeling batch
-  (``label_batch``), and ``accept_labels`` turns the filled label file into the
-  round's ``labeled.json`` + ``labels.npz``. Until the file exists it stops with
+  (``label_batch``; from round 1 on its Label Studio tasks carry the predictions of
+  the model that chose it), and ``accept_labels`` turns the filled label file (or
+  the Label Studio export saved in its place) into the round's ``labeled.json`` +
+  ``labels.npz``. Until the file exists it stops with
   one line naming it; a wrong file stops with one line naming its line and value,
   and nothing is written.
 
@@ -57,15 +59,84 @@ def _asked(record: dict) -> list[int]:
     return record["queried"] if "queried" in record else record["pool_indices"]
 
 
-def label_batch(dataset_path, request_path, labels_file, out_dir) -> dict:
-    """The labeling batch of a query (or of the round-0 set) in ``out_dir``."""
-    from spl_al.data import Dataset
+def batch_probabilities(dataset, pool_indices, model_path, model_cfg: dict) -> np.ndarray:
+    """The probabilities a saved model gives the observed images of training-pool groups
+    ``pool_indices``: (n, C), or (n, C, H, W) for segmentation. Images only, no labels."""
+    from spl_al.experiment.round_steps import load_model
+    from spl_al.training.predict import predict
+
+    model = load_model(dataset, model_cfg, model_path)
+    depth, valid = dataset.groups(dataset.train_idx[np.asarray(pool_indices)], n_variants=0)
+    return predict(model, depth[:, 0], valid[:, 0], "cpu", features="none").probs
+
+
+def label_batch(
+    dataset_path,
+    request_path,
+    labels_file,
+    out_dir,
+    export_file=None,
+    model_path=None,
+    model_cfg: dict | None = None,
+    model_version: str = "",
+) -> dict:
+    """The labeling batch of a query (or of the round-0 set) in ``out_dir``.
+
+    ``export_file``: where a Label Studio JSON export of the batch may be saved instead
+    of ``labels_file``. ``model_path`` / ``model_cfg``: the model that chose the batch
+    (the round before's), whose predictions become the Label Studio pre-annotations,
+    tagged ``model_version``; without them (round 0) the tasks have none.
+    """
+    from spl_al.data import SCENE_FIELDS, Dataset
     from spl_al.labeling import write_batch
 
-    dataset = Dataset.load(dataset_path)
+    dataset = Dataset.load(dataset_path, skip=SCENE_FIELDS)
     asked = _asked(read_json(request_path))
-    write_batch(dataset, asked, out_dir, labels_file)
-    return {"samples": len(asked), "labels_file": str(labels_file)}
+    probs = None
+    if model_path is not None and asked:
+        probs = batch_probabilities(dataset, asked, model_path, model_cfg or {})
+    write_batch(
+        dataset,
+        asked,
+        out_dir,
+        labels_file,
+        export_file=export_file,
+        probs=probs,
+        model_version=model_version,
+    )
+    return {
+        "samples": len(asked),
+        "labels_file": str(labels_file),
+        "pre_annotations": probs is not None,
+    }
+
+
+def given_label_file(labels_file, export_file, batch_dir, n_asked: int) -> Path:
+    """The label file a person gave: the CSV or the Label Studio export (not both).
+
+    Until one exists, a ValueError says what to fill in and where to save it.
+    """
+    labels_file = Path(labels_file)
+    export_file = Path(export_file) if export_file else None
+    given = [p for p in (labels_file, export_file) if p is not None and p.is_file()]
+    if len(given) == 2:
+        raise ValueError(
+            f"both {labels_file} and {export_file} exist; keep the one that holds this "
+            "batch's labels and delete the other."
+        )
+    if given:
+        return given[0]
+    batch_dir = Path(batch_dir)
+    also = (
+        f", or label {batch_dir / 'label_studio.json'} in Label Studio and save its JSON "
+        f"export as {export_file}"
+        if export_file
+        else ""
+    )
+    raise ValueError(
+        f"waiting for labels: fill in {batch_dir / 'to_label.csv'} ({n_asked} samples) and "
+        f"save it as {labels_file}{also}, then run Snakemake again."
+    )
 
 
 def accept_labels(
@@ -76,21 +147,21 @@ def accept_labels(
     previous_labels,
     out_labeled,
     out_labels,
+    export_file=None,
 ) -> dict:
     """Check the filled label file of a batch and write the round's labeled set and
-    every label given so far (``previous_labels``: the round before's, or None)."""
-    from spl_al.data import Dataset
+    every label given so far (``previous_labels``: the round before's, or None).
+
+    The labels come from ``labels_file`` (CSV) or, in its place, from ``export_file``
+    (a Label Studio JSON export); both present is refused.
+    """
+    from spl_al.data import SCENE_FIELDS, Dataset
     from spl_al.labeling import load_labels, read_label_file, save_labels
 
     record = read_json(request_path)
     asked = np.asarray(_asked(record), dtype=np.int64)
-    labels_file = Path(labels_file)
-    if not labels_file.is_file():
-        raise ValueError(
-            f"waiting for labels: fill in {Path(batch_dir) / 'to_label.csv'} "
-            f"({asked.size} samples) and save it as {labels_file}, then run Snakemake again."
-        )
-    dataset = Dataset.load(dataset_path)
+    labels_file = given_label_file(labels_file, export_file, batch_dir, asked.size)
+    dataset = Dataset.load(dataset_path, skip=SCENE_FIELDS)
     given = read_label_file(labels_file, dataset, asked)
     idx, labels = asked, given
     if previous_labels is not None:

@@ -121,9 +121,13 @@ def render_real_capture(
     title: str = "",
     methods=("lmf", "pooled"),
     weights=None,
+    depth_offset_m: float = 0.0,
 ):
     """Write a PNG of a real capture: summed histogram, photon counts, and depth by each
     of ``methods`` (``"sspi"`` needs ``weights``, see ``spl_al.photon.sspi``).
+
+    ``depth_offset_m`` is the depth of the range gate's start (bin 0), added to every
+    depth shown; the returned reconstructions keep depths from bin 0.
 
     Returns {method: Reconstruction}; with both ``"sspi"`` and ``"pooled"`` the SSPI
     panel's title carries their ``depth_agreement``.
@@ -135,7 +139,7 @@ def render_real_capture(
 
     fig, axes = plt.subplots(1, 2 + len(methods), figsize=(3.5 * (2 + len(methods)), 3.4))
     summed = np.bincount(events.bin, minlength=sensor.n_bins)
-    axes[0].plot(sensor.bin_to_depth(np.arange(sensor.n_bins)), summed, lw=0.6)
+    axes[0].plot(sensor.bin_to_depth(np.arange(sensor.n_bins)) + depth_offset_m, summed, lw=0.6)
     axes[0].set_xlabel("depth (m)")
     axes[0].set_ylabel("photons (all pixels)")
     axes[0].set_title("summed histogram", fontsize=9)
@@ -145,7 +149,7 @@ def render_real_capture(
     recs = {
         m: reconstruct(events, events.shape, sensor, method=m, weights=weights) for m in methods
     }
-    lo, hi = np.nanpercentile(recs[methods[-1]].depth_m, [2, 98])
+    lo, hi = np.nanpercentile(recs[methods[-1]].depth_m, [2, 98]) + depth_offset_m
     for ax, method in zip(axes[2:], methods, strict=True):
         label = f"depth, {method} (m)"
         if method == "sspi" and "pooled" in recs:
@@ -154,7 +158,7 @@ def render_real_capture(
                 f"\nvs pooled: median |diff| {100 * a['median_abs_m']:.1f} cm, "
                 f"{100 * a['within_10cm']:.0f}% <= 10 cm"
             )
-        _imshow_depth(ax, recs[method].depth_m, lo, hi, label)
+        _imshow_depth(ax, recs[method].depth_m + depth_offset_m, lo, hi, label)
         fig.colorbar(ax.images[0], ax=ax, fraction=0.046)
     fig.suptitle(title, fontsize=10)
     fig.tight_layout()

@@ -1,48 +1,167 @@
-"""Import of real photon captures."""
+"""Import of real photon captures: one entry point, ``load_capture``, for every format.
+
+Formats (``format="auto"`` tells them apart by the file):
+
+=================  ==================================================================
+``sparse_mat``     ``.mat`` holding a sparse pixels x bins count matrix (the ugv45m frames)
+``timestamps_mat`` ``.mat`` holding an H x W cell array of arrival times per pixel
+``cube``           dense H x W x T / T x H x W counts in ``.mat``, ``.npy``, ``.npz``, HDF5
+``ptu``            PicoQuant PTU image (T3 with line/frame markers), read with ``ptufile``
+=================  ==================================================================
+
+``.mat`` files of MATLAB v5 and v7.3 (HDF5) are both read. Options (each used by the
+formats it applies to): ``key`` (the variable / array / dataset to read),
+``time_unit`` ("ps" default: the unit of timestamps and of a plain ``bin_width`` or
+``gate`` in the file), ``bin_width_s`` (bin timestamps at this width, or the width
+of a file that states none), ``gate_s`` (range gate (start, stop) of timestamps, in
+seconds), ``shape`` and ``order`` (sparse matrices), ``time_axis`` (cubes),
+``channel`` (PTU). Timing a file states is read under the names listed in
+``spl_al.photon.formats.timing``.
+"""
 
 from __future__ import annotations
 
 from pathlib import Path
 
-import numpy as np
+from spl_al.photon.capture import Capture, time_unit_s
+from spl_al.photon.events import PhotonEvents
 
-from spl_al.photon.events import PhotonEvents, events_from_counts
+FORMATS = ("auto", "sparse_mat", "timestamps_mat", "cube", "ptu")
+CAPTURE_SUFFIXES = (".mat", ".npy", ".npz", ".h5", ".hdf5", ".ptu")
+_SUPPORTED = (
+    "supported: a .mat with a sparse pixels x bins matrix, a .mat with an H x W cell array "
+    "of arrival times, a 3-D count cube in .mat/.npy/.npz/.h5, or a PicoQuant .ptu image "
+    "(options: format, key, time_unit, bin_width_s, gate_s, shape, order, time_axis, channel)"
+)
+
+
+def load_capture(
+    path,
+    format: str = "auto",
+    *,
+    key: str | None = None,
+    time_unit: str = "ps",
+    bin_width_s: float | None = None,
+    gate_s: tuple[float, float] | None = None,
+    shape: tuple[int, int] | None = None,
+    order: str = "F",
+    time_axis: int | None = None,
+    channel: int | None = None,
+) -> Capture:
+    """The photons of one capture file and the sensor timing it states.
+
+    Args:
+        path: the capture file.
+        format: one of ``FORMATS``; "auto" detects it from the file.
+        key, time_unit, bin_width_s, gate_s, shape, order, time_axis, channel: see the
+            module docstring; options that do not apply to the format are ignored.
+
+    Returns:
+        Capture: events with bins from 0 at the gate start, bin width, number of bins,
+        gate start, and the pulse sigma / frame count where the file states them.
+
+    Raises:
+        ValueError: one sentence naming the file and what was found, for an unreadable
+            or truncated file, an unknown layout, non-numeric cells, times outside the
+            gate, a cube whose time axis cannot be told, a PTU without image markers.
+    """
+    path = Path(path)
+    if format not in FORMATS:
+        raise ValueError(f"format {format!r} is not known; expected one of {', '.join(FORMATS)}.")
+    if not path.is_file():
+        raise ValueError(f"{path}: no such capture file.")
+    unit_s = time_unit_s(time_unit)
+    suffix = path.suffix.lower()
+    if format == "ptu" or (format == "auto" and suffix == ".ptu"):
+        from spl_al.photon.formats.ptu import read_ptu
+
+        return read_ptu(path, channel=channel)
+    if suffix != ".mat":
+        if format not in ("auto", "cube") or suffix not in CAPTURE_SUFFIXES:
+            raise ValueError(f"{path}: not a capture file this reader knows; {_SUPPORTED}.")
+        from spl_al.photon.formats.cube import read_cube_file
+
+        return read_cube_file(
+            path, key=key, time_axis=time_axis, bin_width_s=bin_width_s, unit_s=unit_s
+        )
+    return _load_mat(
+        path,
+        format,
+        key=key,
+        unit=time_unit,
+        unit_s=unit_s,
+        bin_width_s=bin_width_s,
+        gate_s=gate_s,
+        shape=shape,
+        order=order,
+        time_axis=time_axis,
+    )
+
+
+def _load_mat(
+    path: Path, format: str, *, key, unit, unit_s, bin_width_s, gate_s, shape, order, time_axis
+):
+    from spl_al.photon.formats.cube import cube_names, read_cube
+    from spl_al.photon.formats.matfile import describe_variables, read_mat
+    from spl_al.photon.formats.sparse_mat import read_sparse_mat, sparse_variables
+    from spl_al.photon.formats.timestamps import cell_variables, read_timestamps_mat
+
+    variables = read_mat(path)
+    if format == "auto":
+        format = _detect_mat(variables, key, sparse_variables, cell_variables, cube_names)
+        if format is None:
+            raise ValueError(
+                f"{path}: no photon data found among its variables "
+                f"({describe_variables(variables)}); {_SUPPORTED}."
+            )
+    if format == "sparse_mat":
+        return read_sparse_mat(
+            path,
+            variables,
+            key=key,
+            shape=shape,
+            order=order,
+            bin_width_s=bin_width_s,
+            unit_s=unit_s,
+        )
+    if format == "timestamps_mat":
+        return read_timestamps_mat(
+            path,
+            variables,
+            key=key,
+            unit=unit,
+            unit_s=unit_s,
+            bin_width_s=bin_width_s,
+            gate_s=gate_s,
+        )
+    return read_cube(
+        path,
+        variables,
+        key=key,
+        time_axis=time_axis,
+        bin_width_s=bin_width_s,
+        unit_s=unit_s,
+    )
+
+
+def _detect_mat(variables, key, *finders) -> str | None:
+    """The format of a .mat by what its variables (or the one named ``key``) hold."""
+    for fmt, find in zip(("sparse_mat", "timestamps_mat", "cube"), finders, strict=True):
+        names = find(variables)
+        if (key is None and names) or key in names:
+            return fmt
+    return None
 
 
 def load_mat(
     path, key: str = "spad", shape: tuple[int, int] = (64, 64), order: str = "F"
 ) -> PhotonEvents:
-    """Photon events of a MATLAB capture holding a sparse (pixels x bins) count matrix.
+    """Photon events of a ``.mat`` holding a sparse (pixels x bins) count matrix.
 
-    The layout of Yao et al. 2022 (the ``ugv45m`` captures): ``spad`` is 4096 x 10000,
-    rows are the 64 x 64 pixels in MATLAB column-major order (``order="F"``: pixel
-    p is at row p % 64, column p // 64), columns are time bins.
-
-    Returns events with flat pixel indices in this package's row-major convention.
+    The ugv45m layout: ``spad`` is 4096 x 10000, rows are the 64 x 64 pixels in
+    MATLAB column-major order. ``load_capture`` reads it with its timing; this
+    keeps the events only.
     """
-    from scipy import io as sio  # scipy is heavy to import; only this reader needs it
-    from scipy import sparse
-
-    path = Path(path)
-    try:
-        data = sio.loadmat(path)
-    except Exception as exc:  # scipy raises several types for broken files
-        raise ValueError(f"{path}: not a readable MATLAB .mat file ({exc}).") from None
-    if key not in data:
-        found = sorted(k for k in data if not k.startswith("__"))
-        raise ValueError(f"{path}: no variable {key!r}; found {found}.")
-    matrix = sparse.coo_matrix(data[key])
-    rows, cols = shape
-    if matrix.shape[0] != rows * cols:
-        raise ValueError(
-            f"{path}: {key!r} has {matrix.shape[0]} rows, expected {rows * cols} pixels "
-            f"for shape {shape}."
-        )
-    p = matrix.row.astype(np.int64)
-    if order == "F":
-        r, c = p % rows, p // rows
-    elif order == "C":
-        r, c = p // cols, p % cols
-    else:
-        raise ValueError(f"order must be 'F' or 'C', got {order!r}.")
-    return events_from_counts(r * cols + c, matrix.col, matrix.data, (rows, cols))
+    # Events only: the bin width is not used, so any value stands in for a missing one.
+    capture = load_capture(path, "sparse_mat", key=key, shape=shape, order=order, bin_width_s=1.0)
+    return capture.events
