@@ -17,8 +17,8 @@ rule captures_shard:
         "../envs/spl-al.yaml"
     threads: 1
     resources:
-        mem_mb=4000,
-        runtime=30,
+        mem_mb=res("captures_shard", "mem_mb", 4000),
+        runtime=res("captures_shard", "runtime", 30),
     params:
         entry=lambda w: dataset_params(w.dataset),
         sspi_weights=config["photon"].get("sspi_weights"),
@@ -44,8 +44,8 @@ rule captures_release:
         "../envs/spl-al.yaml"
     threads: 1
     resources:
-        mem_mb=2000,
-        runtime=10,
+        mem_mb=res("captures_release", "mem_mb", 2000),
+        runtime=res("captures_release", "runtime", 10),
     params:
         entry=lambda w: dataset_params(w.dataset),
     script:
