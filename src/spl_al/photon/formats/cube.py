@@ -16,6 +16,7 @@ import numpy as np
 
 from spl_al.photon.capture import Capture
 from spl_al.photon.events import events_from_counts
+from spl_al.photon.formats.choose import choose_key
 from spl_al.photon.formats.timing import (
     stated_bin_width_s,
     stated_gate_start_s,
@@ -105,15 +106,7 @@ def read_cube(
 ) -> Capture:
     """Capture of the cube ``key`` (default: the only 3-D numeric array) of ``arrays``."""
     names = cube_names(arrays)
-    if key is None:
-        if len(names) != 1:
-            raise ValueError(
-                f"{path}: holds {len(names)} 3-D numeric arrays ({', '.join(names) or 'none'}); "
-                "name the count cube (option key)."
-            )
-        key = names[0]
-    if key not in names:
-        raise ValueError(f"{path}: no 3-D numeric array {key!r}; 3-D arrays found: {names}.")
+    key = choose_key(path, names, key, ("3-D numeric array", "3-D numeric arrays"))
     cube = np.asarray(arrays[key])
     axis = time_axis_of(path, key, cube.shape, time_axis)
     if axis == 0:

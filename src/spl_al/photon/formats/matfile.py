@@ -79,14 +79,3 @@ def describe_variables(variables: dict[str, object]) -> str:
         else:
             parts.append(f"{name} ({type(value).__name__})")
     return ", ".join(parts) or "no variables"
-
-
-def scalar(variables: dict[str, object], *names: str) -> float | None:
-    """The first of ``names`` that the file holds as one finite number, else None."""
-    for name in names:
-        value = variables.get(name)
-        if isinstance(value, np.ndarray) and value.size == 1 and value.dtype.kind in "iuf":
-            number = float(value.ravel()[0])
-            if np.isfinite(number):
-                return number
-    return None

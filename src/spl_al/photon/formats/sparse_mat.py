@@ -16,6 +16,7 @@ import numpy as np
 
 from spl_al.photon.capture import Capture
 from spl_al.photon.events import events_from_counts
+from spl_al.photon.formats.choose import choose_key
 from spl_al.photon.formats.timing import (
     stated_bin_width_s,
     stated_gate_start_s,
@@ -51,15 +52,7 @@ def read_sparse_mat(
     from scipy import sparse
 
     names = sparse_variables(variables)
-    if key is None:
-        if len(names) != 1:
-            raise ValueError(
-                f"{path}: holds {len(names)} sparse matrices ({', '.join(names) or 'none'}); "
-                "name the one with the photon counts (option key)."
-            )
-        key = names[0]
-    if key not in names:
-        raise ValueError(f"{path}: no sparse matrix {key!r}; sparse matrices found: {names}.")
+    key = choose_key(path, names, key, ("sparse matrix", "sparse matrices"))
     matrix = sparse.coo_matrix(variables[key])
     n_pixels, n_bins = matrix.shape
     if shape is None:

@@ -18,6 +18,7 @@ import numpy as np
 
 from spl_al.photon.capture import Capture
 from spl_al.photon.events import PhotonEvents
+from spl_al.photon.formats.choose import choose_key
 from spl_al.photon.formats.timing import stated_gate, stated_pulse_sigma_s
 
 MAX_BINS = 1 << 24  # 16.8 M bins: beyond this the native resolution is surely too fine
@@ -79,15 +80,7 @@ def read_timestamps_mat(
 ) -> Capture:
     """Capture of the timestamp cell array ``key`` (default: the file's only one)."""
     names = cell_variables(variables)
-    if key is None:
-        if len(names) != 1:
-            raise ValueError(
-                f"{path}: holds {len(names)} 2-D cell arrays ({', '.join(names) or 'none'}); "
-                "name the one with the arrival times (option key)."
-            )
-        key = names[0]
-    if key not in names:
-        raise ValueError(f"{path}: no 2-D cell array {key!r}; cell arrays found: {names}.")
+    key = choose_key(path, names, key, ("2-D cell array", "2-D cell arrays"))
     cells = variables[key]
     times, counts = _cell_times(path, key, cells)
     if times.size == 0:
