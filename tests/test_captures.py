@@ -124,3 +124,23 @@ def test_unlabeled_captures_for_a_human_oracle(tmp_path):
     with pytest.raises(ValueError, match="with oracle: human the captures must lie directly"):
         make_dataset(entry, tmp_path / "observed2.npz", release_dir=release)
     assert not (tmp_path / "observed2.npz").exists()
+
+
+def test_labels_file_refuses_two_captures_landing_on_one_name(tmp_path):
+    scans = tmp_path / "scans"
+    for sub in ("a", "b"):
+        (scans / sub).mkdir(parents=True)
+        events = simulate_capture(disc_scene(16, 16, 3.0, 6.0), 5.0, 1.0, SENSOR, seed=1)
+        write_timestamps_mat(scans / sub / "x.mat", events, 80)
+    labels = tmp_path / "labels.csv"
+    labels.write_text("file,label\na/x.mat,car\nb/x.mat,car\n")
+    options = CaptureOptions.from_dict({"labels_file": str(labels), "shards": 1})
+    reconstruct_shard(scans, capture_files(scans), tmp_path / "s.npz", options)
+    with pytest.raises(ValueError, match=r"captures a/x.mat and b/x.mat would both be car/x.npz"):
+        write_release([tmp_path / "s.npz"], tmp_path / "release", options)
+    assert not (tmp_path / "release").exists()
+
+
+def test_a_captures_dataset_needs_its_path():
+    with pytest.raises(ValueError, match="a captures dataset needs 'path'"):
+        capture_files(None)

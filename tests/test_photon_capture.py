@@ -214,3 +214,22 @@ def test_ugv45m_reads_through_load_capture(ugv45m_dir):
     assert cap.n_bins == 10_000 and cap.bin_width_s == pytest.approx(100e-12)
     assert any("ugv45m layout" in note for note in cap.notes)
     _same_photons(cap.events, load_mat(path))
+
+
+def test_stated_bin_width_wins_over_the_option(events, tmp_path):
+    path = write_cube_npz(tmp_path / "c.npz", events, SENSOR)  # states 80 ps
+    assert load_capture(path, bin_width_s=16e-12).bin_width_s == pytest.approx(80e-12)
+
+
+def test_cell_array_of_names_beside_a_cube_is_metadata(events, tmp_path):
+    from scipy import io as sio
+
+    from spl_al.photon import histogram
+
+    names = np.empty((1, 1), dtype=object)
+    names[0, 0] = "car"
+    cube = histogram(events, events.shape, SENSOR).astype(np.float64)
+    sio.savemat(tmp_path / "cube.mat", {"hist": cube, "names": names, "bin_width_ps": 80.0})
+    cap = load_capture(tmp_path / "cube.mat")
+    assert cap.format == "cube"
+    _same_photons(cap.events, events)

@@ -9,7 +9,6 @@ from spl_al.config import dataset_precision, real_captures_dir, train_setup
 from spl_al.data.captures import CaptureOptions, capture_files, shard_count, shard_of
 from spl_al.data.external import folder_has_levels
 from spl_al.labeling import lists_training_rows
-from spl_al.photon.io import CAPTURE_SUFFIXES
 from spl_al.experiment.warm import Server
 from spl_al.experiment.plan import (
     check_plan,
@@ -66,7 +65,7 @@ try:
     # photon.real_captures, else $SPL_AL_REAL_CAPTURES, else None (no pictures)
     REAL_CAPTURES = real_captures_dir(config)
     CAPTURE_FILES = {
-        d: capture_files(config["datasets"][d].get("path") or "") for d in CAPTURES
+        d: capture_files(config["datasets"][d].get("path")) for d in CAPTURES
     }
     CAPTURE_SHARDS = {
         d: shard_count(
@@ -74,20 +73,35 @@ try:
         )
         for d, f in CAPTURE_FILES.items()
     }
+    # Datasets whose seed_labels list training rows: those rows are round 0's labels.
+    SEED_LABELS_TRAIN = {
+        d: lists_training_rows(config["datasets"][d]["seed_labels"])
+        for d in HUMAN
+        if Path(config["datasets"][d].get("seed_labels") or "-").is_file()
+    }
 except ValueError as err:
     sys.exit(f"Error: {err}")
 
 
 def real_capture_files():
     """{name: file} of the real captures to picture (none without a captures folder):
-    every file ``load_capture`` reads, named by its stem."""
+    the .mat and .ptu files, named by their stem. Formats that may state no timing
+    (.npy/.npz/HDF5 cubes) are left to ``python -m spl_al.photon --real`` with options.
+    """
     if REAL_CAPTURES is None:
         return {}
-    return {
-        p.stem: str(p)
-        for p in sorted(REAL_CAPTURES.iterdir())
-        if p.is_file() and p.suffix.lower() in CAPTURE_SUFFIXES
-    }
+    files = sorted(
+        p
+        for p in REAL_CAPTURES.iterdir()
+        if p.is_file() and p.suffix.lower() in (".mat", ".ptu")
+    )
+    stems = [p.stem for p in files]
+    twins = sorted({s for s in stems if stems.count(s) > 1})
+    if twins:
+        sys.exit(
+            f"Error: real captures {twins[0]}.* exist in two formats in {REAL_CAPTURES}."
+        )
+    return {p.stem: str(p) for p in files}
 
 
 def photon_pictures():
@@ -299,7 +313,7 @@ def labels_dir(dataset):
 def initial_labels_file(dataset, seed):
     """Round 0's labels: seed_labels when it lists training samples, else a file per seed."""
     given = config["datasets"][dataset].get("seed_labels")
-    if given and (not Path(given).is_file() or lists_training_rows(given)):
+    if given and SEED_LABELS_TRAIN.get(dataset, True):
         return given  # a missing file is reported by the dataset step, naming the key
     return f"{labels_dir(dataset)}/initial/seed{seed}.csv"
 

@@ -97,6 +97,8 @@ class CaptureOptions:
 
 def capture_files(root) -> list[str]:
     """Capture files under ``root`` (and its class folders), as sorted relative paths."""
+    if not root:
+        raise ValueError("a captures dataset needs 'path', the folder of its capture files.")
     root = Path(root)
     if not root.is_dir():
         raise ValueError(f"captures folder {root} does not exist (config key 'path').")
@@ -199,23 +201,25 @@ def write_release(shard_paths, out_dir, options: CaptureOptions) -> Path:
                 frames.append((name, {key: z[f"{k}/{key}"] for key in _RELEASE_KEYS}))
     frames.sort(key=lambda frame: frame[0])
     names = [name for name, _ in frames]
-    stems = [str(Path(name).with_suffix("")) for name in names]
-    twins = sorted({s for s in stems if stems.count(s) > 1})
-    if twins:
-        raise ValueError(
-            f"captures {twins[0]}.* exist in more than one format; each frame needs its own "
-            "name (the release folder keeps one .npz per name)."
-        )
     levels = assign_levels(
         [arrays["msppp"] for _, arrays in frames], options.level_split, options.level_edges
     )
     labels = _read_labels(options.labels_file, names) if options.labels_file else None
+    relatives = [
+        (Path(labels[name]) / Path(name).name if labels else Path(name)).with_suffix(".npz")
+        for name in names
+    ]
+    seen: dict[Path, str] = {}
+    for name, relative in zip(names, relatives, strict=True):
+        if relative in seen:
+            raise ValueError(
+                f"captures {seen[relative]} and {name} would both be {relative} in the "
+                "release folder; give each frame its own name."
+            )
+        seen[relative] = name
     out_dir = Path(out_dir)
     rows = ["file,capture,level,msppp,sbr,pulse_sigma_ps,voids"]
-    for (name, arrays), level in zip(frames, levels, strict=True):
-        relative = Path(name).with_suffix(".npz")
-        if labels is not None:
-            relative = Path(labels[name]) / relative.name
+    for (name, arrays), level, relative in zip(frames, levels, relatives, strict=True):
         arrays = {**arrays, "level": np.str_(level)}
 
         def write(tmp: Path, arrays=arrays) -> None:

@@ -26,7 +26,9 @@ def _capture_options(parser: argparse.ArgumentParser) -> None:
         "--time-unit", default="ps", help="unit of timestamps and of a plain bin_width / gate"
     )
     parser.add_argument(
-        "--bin-width-ps", type=float, help="bin timestamps at this width (or set a cube's)"
+        "--bin-width-ps",
+        type=float,
+        help="bin timestamps at this width; the width of files that state none",
     )
     parser.add_argument(
         "--pulse-sigma-ps", type=float, help="instrument response sigma (default: estimated)"

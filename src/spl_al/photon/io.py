@@ -104,11 +104,11 @@ def _load_mat(
     from spl_al.photon.formats.cube import cube_names, read_cube
     from spl_al.photon.formats.matfile import describe_variables, read_mat
     from spl_al.photon.formats.sparse_mat import read_sparse_mat, sparse_variables
-    from spl_al.photon.formats.timestamps import cell_variables, read_timestamps_mat
+    from spl_al.photon.formats.timestamps import read_timestamps_mat, timestamp_candidates
 
     variables = read_mat(path)
     if format == "auto":
-        format = _detect_mat(variables, key, sparse_variables, cell_variables, cube_names)
+        format = _detect_mat(variables, key, sparse_variables, timestamp_candidates, cube_names)
         if format is None:
             raise ValueError(
                 f"{path}: no photon data found among its variables "

@@ -118,8 +118,7 @@ def read_cube(
         events = events_from_counts(r * cols + c, t, counts, (rows, cols))
     except ValueError as exc:
         raise ValueError(f"{path}: {key}: {exc}") from None
-    if bin_width_s is None:
-        bin_width_s = stated_bin_width_s(arrays, unit_s)
+    bin_width_s = stated_bin_width_s(arrays, unit_s) or bin_width_s  # the file's first
     if bin_width_s is None:
         raise ValueError(
             f"{path}: states no bin width; give it (option bin_width_s, or "

@@ -47,7 +47,8 @@ def read_sparse_mat(
 
     ``shape`` is the frame's (rows, cols); by default a square frame of the matrix's
     row count. ``order`` says how a row index p maps to a pixel: "F" (MATLAB,
-    column-major) or "C" (row-major).
+    column-major) or "C" (row-major). The bin width is the file's, else the ugv45m
+    layout's, else ``bin_width_s`` (the width of files that state none).
     """
     from scipy import sparse
 
@@ -81,17 +82,17 @@ def read_sparse_mat(
         raise ValueError(f"{path}: variable {key!r}: {exc}") from None
 
     notes = []
+    stated = stated_bin_width_s(variables, unit_s)
+    if stated is not None:
+        bin_width_s = stated
+    elif key == "spad" and n_bins == 10_000:
+        bin_width_s = UGV45M_BIN_WIDTH_S
+        notes.append("bin width 100 ps: the ugv45m layout (the file states none)")
     if bin_width_s is None:
-        bin_width_s = stated_bin_width_s(variables, unit_s)
-    if bin_width_s is None:
-        if key == "spad" and n_bins == 10_000:
-            bin_width_s = UGV45M_BIN_WIDTH_S
-            notes.append("bin width 100 ps: the ugv45m layout (the file states none)")
-        else:
-            raise ValueError(
-                f"{path}: states no bin width; give it (option bin_width_s, "
-                "or --bin-width-ps on the command line)."
-            )
+        raise ValueError(
+            f"{path}: states no bin width; give it (option bin_width_s, "
+            "or --bin-width-ps on the command line)."
+        )
     return Capture(
         events=events,
         bin_width_s=float(bin_width_s),

@@ -33,6 +33,18 @@ def cell_variables(variables: dict) -> list[str]:
     )
 
 
+def timestamp_candidates(variables: dict) -> list[str]:
+    """2-D cell arrays that look like arrival times: at least half of their non-empty
+    cells numeric (a cell of names or notes is metadata, not photons)."""
+    out = []
+    for name in cell_variables(variables):
+        filled = [np.asarray(c) for c in variables[name].ravel() if np.asarray(c).size]
+        numeric = sum(c.dtype.kind in "iuf" for c in filled)
+        if filled and 2 * numeric >= len(filled):
+            out.append(name)
+    return out
+
+
 def _cell_times(path: Path, key: str, cells: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """(times (K,) float64, photons per pixel (H*W,) int64), pixels row-major."""
     flat = cells.ravel(order="C")

@@ -10,7 +10,9 @@ A file (``.mat`` variable, ``.npz`` array, HDF5 dataset or attribute) may state:
 - for timestamp lists, the range gate as ``gate`` (two numbers, start and stop, in
   ``time_unit``).
 
-A value given as an option wins over the file's.
+A bin width the file states wins over the option (which bins timestamps and gives
+the width of files that state none); a pulse sigma given as an option wins over
+the file's.
 """
 
 from __future__ import annotations
