@@ -17,11 +17,7 @@ import numpy as np
 from spl_al.photon.capture import Capture
 from spl_al.photon.events import events_from_counts
 from spl_al.photon.formats.choose import choose_key
-from spl_al.photon.formats.timing import (
-    stated_bin_width_s,
-    stated_gate_start_s,
-    stated_pulse_sigma_s,
-)
+from spl_al.photon.formats.timing import counts_capture
 
 CUBE_SUFFIXES = (".npy", ".npz", ".h5", ".hdf5", ".mat")
 
@@ -118,19 +114,13 @@ def read_cube(
         events = events_from_counts(r * cols + c, t, counts, (rows, cols))
     except ValueError as exc:
         raise ValueError(f"{path}: {key}: {exc}") from None
-    bin_width_s = stated_bin_width_s(arrays, unit_s) or bin_width_s  # the file's first
-    if bin_width_s is None:
-        raise ValueError(
-            f"{path}: states no bin width; give it (option bin_width_s, or "
-            "--bin-width-ps on the command line)."
-        )
-    return Capture(
-        events=events,
-        bin_width_s=float(bin_width_s),
-        n_bins=int(n_bins),
-        gate_start_s=stated_gate_start_s(arrays) or 0.0,
-        pulse_sigma_s=stated_pulse_sigma_s(arrays),
+    return counts_capture(
+        path,
+        events,
+        n_bins,
+        arrays,
         format="cube",
-        path=str(path),
+        given_bin_width_s=bin_width_s,
+        unit_s=unit_s,
         notes=(f"time axis {axis} of {key}",),
     )

@@ -17,11 +17,7 @@ import numpy as np
 from spl_al.photon.capture import Capture
 from spl_al.photon.events import events_from_counts
 from spl_al.photon.formats.choose import choose_key
-from spl_al.photon.formats.timing import (
-    stated_bin_width_s,
-    stated_gate_start_s,
-    stated_pulse_sigma_s,
-)
+from spl_al.photon.formats.timing import counts_capture
 
 UGV45M_BIN_WIDTH_S = 100e-12
 
@@ -81,25 +77,14 @@ def read_sparse_mat(
     except ValueError as exc:
         raise ValueError(f"{path}: variable {key!r}: {exc}") from None
 
-    notes = []
-    stated = stated_bin_width_s(variables, unit_s)
-    if stated is not None:
-        bin_width_s = stated
-    elif key == "spad" and n_bins == 10_000:
-        bin_width_s = UGV45M_BIN_WIDTH_S
-        notes.append("bin width 100 ps: the ugv45m layout (the file states none)")
-    if bin_width_s is None:
-        raise ValueError(
-            f"{path}: states no bin width; give it (option bin_width_s, "
-            "or --bin-width-ps on the command line)."
-        )
-    return Capture(
-        events=events,
-        bin_width_s=float(bin_width_s),
-        n_bins=int(n_bins),
-        gate_start_s=stated_gate_start_s(variables) or 0.0,
-        pulse_sigma_s=stated_pulse_sigma_s(variables),
+    ugv45m = key == "spad" and n_bins == 10_000
+    return counts_capture(
+        path,
+        events,
+        n_bins,
+        variables,
         format="sparse_mat",
-        path=str(path),
-        notes=tuple(notes),
+        given_bin_width_s=bin_width_s,
+        unit_s=unit_s,
+        layout=("ugv45m", UGV45M_BIN_WIDTH_S) if ugv45m else None,
     )

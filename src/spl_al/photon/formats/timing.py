@@ -18,8 +18,12 @@ the file's.
 from __future__ import annotations
 
 from collections.abc import Mapping
+from pathlib import Path
 
 import numpy as np
+
+from spl_al.photon.capture import Capture
+from spl_al.photon.events import PhotonEvents
 
 BIN_WIDTH_NAMES = ("bin_width_s", "bin_width_ps", "tcspc_resolution", "bin_width")
 
@@ -69,3 +73,42 @@ def stated_gate(values: Mapping, unit_s: float) -> tuple[float, float] | None:
         return None
     start, stop = (float(x) * unit_s for x in a.ravel())
     return start, stop
+
+
+def counts_capture(
+    path: Path,
+    events: PhotonEvents,
+    n_bins: int,
+    values: Mapping,
+    *,
+    format: str,
+    given_bin_width_s: float | None,
+    unit_s: float,
+    layout: tuple[str, float] | None = None,
+    notes: tuple[str, ...] = (),
+) -> Capture:
+    """A Capture of binned counts (sparse matrix or cube) with the timing ``values`` state.
+
+    Bin width: the file's, else ``layout`` (name, bin width) of a known layout (noted), else
+    ``given_bin_width_s`` (the option for files that state none), else one error.
+    """
+    width = stated_bin_width_s(values, unit_s)
+    if width is None and layout is not None:
+        name, width = layout
+        notes = (*notes, f"bin width {width * 1e12:g} ps: the {name} layout (the file states none)")
+    width = width if width is not None else given_bin_width_s
+    if width is None:
+        raise ValueError(
+            f"{path}: states no bin width; give it (option bin_width_s, "
+            "or --bin-width-ps on the command line)."
+        )
+    return Capture(
+        events=events,
+        bin_width_s=float(width),
+        n_bins=int(n_bins),
+        gate_start_s=stated_gate_start_s(values) or 0.0,
+        pulse_sigma_s=stated_pulse_sigma_s(values),
+        format=format,
+        path=str(path),
+        notes=notes,
+    )
