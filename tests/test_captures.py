@@ -125,6 +125,13 @@ def test_unlabeled_captures_for_a_human_oracle(tmp_path):
         make_dataset(entry, tmp_path / "observed2.npz", release_dir=release)
     assert not (tmp_path / "observed2.npz").exists()
 
+    # the workflow refuses such a folder before any reconstruction job runs
+    (scans / "sub").mkdir()
+    (scans / "scan5.mat").rename(scans / "sub" / "scan5.mat")
+    assert "sub/scan5.mat" in capture_files(scans)
+    with pytest.raises(ValueError, match=r"must lie directly in .*scans .*found sub/\."):
+        capture_files(scans, flat=True)
+
 
 def test_labels_file_refuses_two_captures_landing_on_one_name(tmp_path):
     scans = tmp_path / "scans"

@@ -65,7 +65,11 @@ try:
     # photon.real_captures, else $SPL_AL_REAL_CAPTURES, else None (no pictures)
     REAL_CAPTURES = real_captures_dir(config)
     CAPTURE_FILES = {
-        d: capture_files(config["datasets"][d].get("path")) for d in CAPTURES
+        d: capture_files(
+            config["datasets"][d].get("path"),
+            flat=config["datasets"][d].get("oracle") == "human",
+        )
+        for d in CAPTURES
     }
     CAPTURE_SHARDS = {
         d: shard_count(

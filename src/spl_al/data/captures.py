@@ -95,8 +95,12 @@ class CaptureOptions:
         }
 
 
-def capture_files(root) -> list[str]:
-    """Capture files under ``root`` (and its class folders), as sorted relative paths."""
+def capture_files(root, flat: bool = False) -> list[str]:
+    """Capture files under ``root`` (and its class folders), as sorted relative paths.
+
+    ``flat``: the files must lie directly in ``root`` (an unlabeled pool for a human
+    oracle); a file in a subfolder is refused before any reconstruction runs.
+    """
     if not root:
         raise ValueError("a captures dataset needs 'path', the folder of its capture files.")
     root = Path(root)
@@ -112,6 +116,12 @@ def capture_files(root) -> list[str]:
     if not files:
         expected = ", ".join(CAPTURE_SUFFIXES)
         raise ValueError(f"captures folder {root} holds no capture file (expected {expected}).")
+    nested = [f for f in files if Path(f).parent != Path(".")]
+    if flat and nested:
+        raise ValueError(
+            f"config key 'path': with oracle: human the captures must lie directly in "
+            f"{root} (an unlabeled pool is read flat); found {Path(nested[0]).parent}/."
+        )
     return files
 
 
