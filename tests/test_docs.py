@@ -195,3 +195,52 @@ def test_pages_generator_writes_every_dataset_and_keeps_the_readme_outside(tmp_p
 def test_pages_generator_refuses_a_folder_without_results(tmp_path, capsys):
     assert pages.main([str(tmp_path), "--docs", str(tmp_path), "--readme", str(tmp_path)]) == 1
     assert "holds no dataset" in capsys.readouterr().err
+
+
+def test_pages_generator_gives_a_second_run_its_own_page_and_figures(tmp_path):
+    results = tmp_path / "results-decisive"
+    _fake_dataset(results, "real_cls", "accuracy", True)
+    docs = tmp_path / "docs"
+    (docs / "figures").mkdir(parents=True)
+    (docs / "figures" / "real_cls_budget.png").write_bytes(b"default run's")
+    (docs / "decisive.md").write_text(
+        "# 24 seeds\n\n<!-- results:start -->\n<!-- results:end -->\n"
+    )
+    readme = tmp_path / "README.md"
+    default_block = "<!-- results:start -->\ndefault run\n<!-- results:end -->\n"
+    readme.write_text(f"{default_block}\n<!-- decisive:start -->\nold\n<!-- decisive:end -->\n")
+
+    argv = [str(results), "--docs", str(docs), "--readme", str(readme), "--page", "decisive"]
+    assert pages.main(argv) == 0
+
+    text = readme.read_text()
+    assert text.startswith(default_block)  # the default run's block is not touched
+    assert "\nold\n" not in text and "| DUIS | 31.0 ± 1.5 |" in text
+    assert "[docs/decisive.md](docs/decisive.md)" in text
+    page = (docs / "decisive.md").read_text()
+    assert "(figures/decisive_real_cls_budget.png)" in page
+    assert (docs / "figures" / "decisive_real_cls_budget.png").read_bytes() == b"\x89PNG fake"
+    assert (docs / "figures" / "real_cls_budget.png").read_bytes() == b"default run's"
+    assert f"`{results.as_posix()}/real_cls/tables/comparisons.md`" in page
+
+    # a README without the page's block is left as it was
+    readme.write_text(default_block)
+    assert pages.main(argv) == 0
+    assert readme.read_text() == default_block
+
+
+def test_pages_generator_writes_nothing_when_the_readme_lacks_its_block(tmp_path, capsys):
+    results = tmp_path / "results"
+    _fake_dataset(results, "real_cls", "accuracy", True)
+    docs = tmp_path / "docs"
+    docs.mkdir()
+    (docs / "results.md").write_text("<!-- results:start -->\nold\n<!-- results:end -->\n")
+    readme = tmp_path / "README.md"
+    readme.write_text("# no block\n")
+
+    assert pages.main([str(results), "--docs", str(docs), "--readme", str(readme)]) == 1
+    assert "<!-- results:start -->" in capsys.readouterr().err
+    assert (
+        docs / "results.md"
+    ).read_text() == "<!-- results:start -->\nold\n<!-- results:end -->\n"
+    assert not (docs / "figures").exists()
