@@ -8,6 +8,7 @@ import math
 import numpy as np
 import pandas as pd
 import pytest
+from scipy.stats import t as student_t
 
 from spl_al.report import budget_table, records_frame, render_markdown, summary
 from spl_al.report.claims import claims, render_claims_markdown
@@ -47,6 +48,38 @@ T_975_2 = 4.302652729911275  # t quantile 0.975 with 2 degrees of freedom
 )
 def test_sign_flip_p_by_hand(d, p):
     assert sign_flip_p(d) == pytest.approx(p)
+
+
+def _enumerated_p(d) -> float:
+    """The definition, by brute force over all 2^n sign vectors."""
+    d = np.asarray(d, dtype=float)
+    bits = (np.arange(2**d.size)[:, None] >> np.arange(d.size)) & 1
+    sums = np.abs((1 - 2 * bits) @ d)
+    return float(np.mean(sums >= abs(d.sum()) * (1 - 1e-9) - 1e-15))
+
+
+@pytest.mark.parametrize("n", [1, 2, 5, 6, 9, 13, 14])
+def test_sign_flip_p_equals_enumerating_every_sign_vector(n):
+    rng = np.random.default_rng(n)
+    continuous = rng.normal(0.5, 1.0, n)
+    # accuracies on 330 test images: differences are multiples of 1/330, ties abound
+    tied = rng.integers(-4, 6, n) / 330 * 100
+    for d in (continuous, tied, np.abs(tied), np.r_[tied[:-1], 0.0]):
+        assert sign_flip_p(d) == pytest.approx(_enumerated_p(d), abs=1e-12)
+
+
+def test_sign_flip_p_beyond_twenty_seeds():
+    agree = np.linspace(0.5, 3.0, 24)  # every one of 24 seeds the same way
+    assert sign_flip_p(agree) == pytest.approx(2 / 2**24)
+    assert sign_flip_p(np.r_[agree, -agree]) == 1.0  # sum exactly 0
+    d = np.random.default_rng(1).normal(0.3, 1.0, 40)  # largest exact n: two 2^20 halves
+    assert 0.0 < sign_flip_p(d) < 1.0
+    # beyond 40 values: seeded Monte Carlo, reproducible, never below 1 / (draws + 1)
+    many = np.random.default_rng(2).normal(0.0, 1.0, 60)
+    assert sign_flip_p(many) == sign_flip_p(many)
+    t = many.mean() / (many.std(ddof=1) / np.sqrt(60))
+    assert sign_flip_p(many) == pytest.approx(2 * student_t.sf(abs(t), 59), abs=0.03)
+    assert sign_flip_p(np.abs(many)) == pytest.approx(1 / (2**20 + 1))
 
 
 def test_minimum_p_and_seeds_for_five_percent():

@@ -62,8 +62,11 @@ POWER = 0.8
 MAX_SEEDS_NEEDED = 100
 """``seeds_needed`` searches n up to this; beyond, the effect is reported as ">100"."""
 
-MAX_EXACT_SEEDS = 20
-"""The sign-flip test enumerates 2^n sign vectors; beyond this it would be slow."""
+MAX_EXACT_SEEDS = 40
+"""Up to this many seeds the sign-flip p is exact (two halves of at most 2^20 sums);
+beyond, it is estimated from ``MONTE_CARLO_DRAWS`` seeded random sign vectors."""
+
+MONTE_CARLO_DRAWS = 2**20
 
 # Relative tolerance when comparing permuted statistics with the observed one, so that
 # a sign vector giving the same |mean| up to rounding counts as "as extreme".
@@ -80,23 +83,44 @@ def seeds_for_level(level: float = LEVEL) -> int:
     return max(1, math.ceil(1 + math.log2(1 / level)))
 
 
-def sign_flip_p(d) -> float:
-    """Exact two-sided sign-flip p-value of paired differences ``d`` (1-D, n <= 20).
+def _signed_sums(d: np.ndarray) -> np.ndarray:
+    """(2^k,) sums sum_i eps_i d_i over every sign vector eps of the k values ``d``."""
+    sums = np.zeros(1)
+    for x in d:
+        sums = np.concatenate([sums + x, sums - x])
+    return sums
 
-    p = #{eps in {-1, +1}^n : |mean(eps * d)| >= |mean(d)|} / 2^n. All-zero
-    differences give 1; an empty array gives NaN.
+
+def sign_flip_p(d) -> float:
+    """Two-sided sign-flip p-value of paired differences ``d`` (1-D).
+
+    p = #{eps in {-1, +1}^n : |sum(eps * d)| >= |sum(d)|} / 2^n, counted exactly up to
+    ``MAX_EXACT_SEEDS`` values: the sums of the first half's 2^(n/2) sign vectors are
+    paired with the sorted sums of the second half's (meet in the middle), so n = 40
+    needs two arrays of 2^20, not 2^40 rows. Beyond, the share among
+    ``MONTE_CARLO_DRAWS`` random sign vectors (seeded: the same d gives the same p),
+    as (1 + hits) / (1 + draws). All-zero differences give 1; an empty array gives NaN.
     """
     d = np.asarray(d, dtype=float).ravel()
     n = d.size
     if n == 0:
         return math.nan
+    # a sign vector whose |sum| equals the observed one up to rounding counts as extreme
+    bar = abs(d.sum()) * (1 - _TIE_RTOL) - 1e-15
+    if bar <= 0:
+        return 1.0
     if n > MAX_EXACT_SEEDS:
-        raise ValueError(f"sign_flip_p enumerates 2^n sign vectors; n = {n} > {MAX_EXACT_SEEDS}.")
-    bits = (np.arange(2**n)[:, None] >> np.arange(n)) & 1  # (2^n, n) of 0/1
-    signs = 1 - 2 * bits  # +1 / -1
-    stats = np.abs(signs @ d)
-    observed = abs(d.sum())
-    return float(np.mean(stats >= observed * (1 - _TIE_RTOL) - 1e-15))
+        rng = np.random.default_rng(0)
+        hits = 0
+        for _ in range(MONTE_CARLO_DRAWS // 2**14):
+            signs = 1 - 2 * rng.integers(0, 2, size=(2**14, n))
+            hits += int(np.count_nonzero(np.abs(signs @ d) >= bar))
+        return (1 + hits) / (1 + MONTE_CARLO_DRAWS)
+    first = _signed_sums(d[: n // 2])
+    second = np.sort(_signed_sums(d[n // 2 :]))
+    at_least = second.size - np.searchsorted(second, bar - first, side="left")
+    at_most = np.searchsorted(second, -bar - first, side="right")
+    return float((at_least.sum() + at_most.sum()) / 2.0**n)
 
 
 def t_interval(d, level: float = LEVEL) -> tuple[float, float]:
