@@ -54,3 +54,36 @@ def test_paper_config_trains_with_the_papers_recipe_whatever_the_defaults():
         assert train["model"] == {"arch": "resnet18"}
         build_model("classification", 11, **train["model"])
         assert TrainConfig.from_dict(train["fit"]) == TrainConfig.paper()
+
+
+def _merged(*names: str) -> dict:
+    """config/config.yaml with the named override files merged on top, as Snakemake does."""
+    root = Path(__file__).resolve().parents[1] / "config"
+    config = yaml.safe_load((root / "config.yaml").read_text())
+    for name in names:
+        update_config(config, yaml.safe_load((root / name).read_text()))
+    return drop_removed(config)
+
+
+@pytest.mark.parametrize("name", ["ci.yaml", "paper.yaml", "harder.yaml", "decisive.yaml"])
+def test_every_shipped_override_is_a_valid_config(name):
+    root = Path(__file__).resolve().parents[1] / "config"
+    check_config(_merged(name), root / "schema.yaml")
+
+
+def test_decisive_config_extends_the_default_run_seeds_of_real_cls_only():
+    """Seeds 1-6 of the 24-seed run must be the default run's own rounds: the same
+    data, recipe and methods, only more seeds (and fewer experiments)."""
+    default, decisive = _merged(), _merged("decisive.yaml")
+    assert list(decisive["datasets"]) == ["real_cls"]
+    assert decisive["results"] != default["results"]
+    ours, theirs = decisive["datasets"]["real_cls"], default["datasets"]["real_cls"]
+    for key in ("synthesis", "variants", "al", "train", "task", "source"):
+        assert ours[key] == theirs[key], key
+    for experiment in ("budget", "ablation"):
+        seeds = ours["experiments"][experiment]["seeds"]
+        assert len(seeds) == len(set(seeds)) >= 20
+        assert seeds[:6] == theirs["experiments"][experiment]["seeds"]
+        mine = {k: v for k, v in ours["experiments"][experiment].items() if k != "seeds"}
+        assert mine == {k: v for k, v in theirs["experiments"][experiment].items() if k != "seeds"}
+    assert decisive["methods"] == default["methods"]

@@ -118,6 +118,7 @@ def main(argv: list[str]) -> int:
     """Time every default model at every precision; print the table; the exit code."""
     import torch
 
+    from spl_al.models import model_class
     from spl_al.training.precision import native_bf16, resolve_precision
 
     parser = argparse.ArgumentParser(prog="python -m spl_al.bench training", description=__doc__)
@@ -141,6 +142,8 @@ def main(argv: list[str]) -> int:
     for label, task, model_cfg, fit, shape in _cases(config, paper):
         if args.only and args.only not in label:
             continue
+        # what `precision: auto` picks for this model (PointNet++ stays fp32 on a CPU)
+        model_auto = resolve_precision("auto", cpu, model_class(task, model_cfg.get("arch")))
         for device, threads, precisions in places:
             base = None
             for precision in precisions:
@@ -149,7 +152,8 @@ def main(argv: list[str]) -> int:
                 )
                 base = base or train_rate
                 name = torch.cuda.get_device_name(0) if device == "cuda" else "cpu"
-                tag = f"{precision} (auto)" if device == "cpu" and precision == auto else precision
+                auto_here = device == "cpu" and precision == model_auto
+                tag = f"{precision} (auto)" if auto_here else precision
                 rows.append(
                     [label, name, tag, str(threads) if device == "cpu" else "-",
                      str(fit.get("batch_size")), f"{train_rate:.0f}", f"{train_rate / base:.2f}",
