@@ -80,6 +80,19 @@ def test_spread_conditions_is_a_permutation_whose_prefixes_spread():
     assert order[0][1] == 1.0, "the middle SBR first"
     lo = {m for m, _ in order[:3]}
     assert lo == {1.0, 8.0}, "the first three cover both photon levels"
+    # the default grid in the order the variants module's docstring states
+    default = spread_conditions(condition_set())
+    assert default == [
+        (5, 1),
+        (2, 0.2),
+        (2, 5),
+        (10, 0.2),
+        (10, 5),
+        (2, 1),
+        (5, 0.2),
+        (10, 1),
+        (5, 5),
+    ]
 
 
 def test_attach_refuses_overlap_missing_and_foreign(data, whole):

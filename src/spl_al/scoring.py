@@ -10,8 +10,9 @@ strategies asked for (``spl_al.strategies.inputs.NEEDS``):
 - Segmentation memory stays bounded: per-pixel probabilities and features live
   only within one batch and are reduced there to per-group quantities, exactly:
   entropy, margin, gamma and d are means over the observed image's valid pixels
-  (the pixels the oracle labels; a variant's prediction counts at those pixels even
-  where the variant itself is void), features are averaged over the same pixels,
+  (the pixels the oracle labels); a variant counts only at the pixels it holds (its
+  void pixels carry no prediction: qbar at a pixel averages the images that hold it,
+  see ``margin_and_inconsistency``), features are averaged over the same pixels,
   and BADGE's embedding is the pixel-averaged C x d gradient matrix. Nothing per
   pixel is stored, so the output is O(groups x (C x d)) whatever the image size.
   For PointNet++ the valid pixels are the cloud's points, so Coreset's and DUIS's

@@ -10,8 +10,9 @@ j of one ordered list, so the inconsistency d_i of DUIS compares like with like
 across groups, and the first m variants of a group are exactly the variants an
 M = m run would make (the M sweep is nested). The default list orders the dataset's
 MSPPP levels x SBR values so that every prefix spreads over the grid
-(``spread_conditions``): with the default levels (10, 5, 2) and SBR (0.2, 1, 5),
-(5, 1), (2, 0.2), (10, 5), (10, 0.2), (2, 5), ... The photons
+(``spread_conditions``): with the default levels (10, 5, 2) and SBR (0.2, 1, 5) the
+order is (5, 1), (2, 0.2), (2, 5), (10, 0.2), (10, 5), (2, 1), (5, 0.2), (10, 1),
+(5, 5), so M = 4 takes the centre and the four corners of the grid. The photons
 are simulated and reconstructed on the bounding box of the observed image's
 returns (``spl_al.data.observe.image_through_photons``): bit-identical to
 ``synthesize_variant`` on the whole frame, and faster.
