@@ -244,3 +244,44 @@ def test_pages_generator_writes_nothing_when_the_readme_lacks_its_block(tmp_path
         docs / "results.md"
     ).read_text() == "<!-- results:start -->\nold\n<!-- results:end -->\n"
     assert not (docs / "figures").exists()
+
+
+def test_readme_table_shows_the_matched_family_first_and_the_aubc_range(tmp_path):
+    results = tmp_path / "results"
+    _fake_dataset(results, "real_cls", "accuracy", False)
+    tables = results / "real_cls" / "tables"
+    budget = list(csv.DictReader((tables / "budget.csv").open()))
+    twin = [dict(r, method="syn_random", row="Syn+Random", row_pos=2) for r in budget[:2]]
+    for r in budget:
+        r["row_pos"] = {"random": 0, "duis": 3}[r["method"]]
+    _write_csv(tables / "budget.csv", budget + twin)
+    summary = json.loads((tables / "summary.json").read_text())
+    summary["methods"]["syn_random"] = dict(summary["methods"]["random"])
+    for entry in summary["methods"].values():
+        entry["aubc"] = dict(entry["aubc"], span="rounds 1-1 (4.0%)")
+    summary["families"] = {"paper": ["random", "duis"], "matched": ["syn_random", "duis"]}
+    (tables / "summary.json").write_text(json.dumps(summary))
+    _write_csv(
+        tables / "claims.csv",
+        [
+            dict(claim_id="a", claim="Paper claim.", verdict="seeds agree (untested)",
+                 source="paper"),
+            dict(claim_id="b", claim="Extension claim.", verdict="seeds against (untested)",
+                 source="extension"),
+        ],
+    )  # fmt: skip
+    lines = pages.compact_table(results, "real_cls")
+    assert "AUBC rounds 1-1 (4.0%) [95% CI]" in lines[0]
+    rows = [line.split(" | ")[0].lstrip("| ") for line in lines[2:]]
+    assert rows == [
+        "*matched training (every method trained on the variants)*",
+        "Syn+Random",
+        "DUIS",
+        "*as the paper compares (baselines on observed images only)*",
+        "Random",
+    ]
+    line = pages.verdict_line(pages.claims(results, "real_cls"))
+    assert line == (
+        "The paper's claims: 1 seeds agree (untested) (of 1). Extensions: 1 seeds against "
+        "(untested) (of 1). Seeds against (untested): Extension claim."
+    )

@@ -27,6 +27,10 @@ pytestmark = [
 ]
 
 CLS_METHODS = ["random", "entropy", "margin", "coreset", "badge", "duis"]
+# the matched family of real_cls: the baselines' twins trained on the variants, and
+# Syn+Diversity for the decomposition of DUIS - Random
+CLS_MATCHED = ["syn_random", "syn_entropy", "syn_margin", "syn_coreset", "syn_badge"]
+CLS_BUDGET = [*CLS_METHODS, *CLS_MATCHED, "syn_diversity"]
 
 
 # wall seconds of the runs, for the report of the SLURM test
@@ -72,17 +76,18 @@ def labeled_sets(results: Path, dataset: str) -> dict[str, list[int]]:
 def test_every_table_has_its_rows_columns_and_ranges(ci_results):
     cls = ci_results / "real_cls" / "tables"
     budget = pd.read_csv(cls / "budget.csv")
-    assert sorted(budget["method"].unique()) == sorted(CLS_METHODS)
+    assert sorted(budget["method"].unique()) == sorted(CLS_BUDGET)
     assert sorted(budget["round"].unique()) == [0, 1]
-    assert len(budget) == len(CLS_METHODS) * 2
-    assert budget["n_labeled"].tolist() == [11, 17] * len(CLS_METHODS)
+    assert len(budget) == len(CLS_BUDGET) * 2
+    assert budget["n_labeled"].tolist() == [11, 17] * len(CLS_BUDGET)
+    assert budget["col"].tolist()[0].endswith("(round 0)")
     assert budget["ratio"].between(0, 1).all() and budget["mean"].between(0, 100).all()
     assert (budget["n_seeds"] == 2).all() and (budget["std"] >= 0).all()
     assert budget["synthetic_standin"].all()  # no path given: the real protocol runs on a stand-in
 
     levels = pd.read_csv(cls / "levels.csv")
     assert set(levels["level"]) == {"high", "medium", "low"}
-    assert len(levels) == len(CLS_METHODS) * 3 and levels["mean"].between(0, 100).all()
+    assert len(levels) == len(CLS_BUDGET) * 3 and levels["mean"].between(0, 100).all()
 
     ablation = pd.read_csv(cls / "ablation.csv")
     assert ablation["row"].tolist() == ["Syn+Random", "Syn+Diversity", "Full"]
@@ -103,8 +108,7 @@ def test_every_table_has_its_rows_columns_and_ranges(ci_results):
 
     summary = json.loads((cls / "summary.json").read_text())
     assert sorted(summary["methods"]) == sorted(
-        set(CLS_METHODS)
-        | {"syn_random", "syn_diversity", "duis_ncand6", "duis_alpha0.25", "duis_m1"}
+        set(CLS_BUDGET) | {"duis_ncand6", "duis_alpha0.25", "duis_m1"}
     )
     for stats in summary["methods"].values():
         assert 0 <= stats["auc"] <= 1 and 0 <= stats["final_mean"] <= 1
@@ -121,8 +125,9 @@ def test_paired_statistics_claims_and_robustness_map(ci_results):
     cmp = pd.read_csv(cls / "comparisons.csv")
     assert set(cmp["experiment"]) == {"budget", "levels", "ablation", "sensitivity"}
     budget = cmp[cmp["experiment"] == "budget"]
-    # 6 methods: 15 pairs at each of 2 rounds and for the AUBC
-    assert len(budget) == 15 * 3 and (budget["point"] == "AUBC").sum() == 15
+    # 12 methods: 66 pairs at each of 2 rounds and for the AUBC over the query round
+    assert len(budget) == 66 * 3 and (budget["point"] == "AUBC").sum() == 66
+    assert set(budget.loc[budget["point"] == "AUBC", "span"]) == {"round 1 (19.3%)"}
     assert cmp["n"].between(1, 2).all() and cmp["p_value"].between(0, 1).all()
     paired = cmp[cmp["n"] == 2]  # sensitivity runs one seed: no interval there
     assert (paired["ci_low"] <= paired["diff"]).all() and (
@@ -131,9 +136,18 @@ def test_paired_statistics_claims_and_robustness_map(ci_results):
     assert cmp.loc[cmp["n"] == 1, "ci_low"].isna().all()
     assert not cmp["resolved"].any()  # at most two seeds: nothing can be resolved
     claims = pd.read_csv(cls / "claims.csv")
-    assert {"duis_best_every_budget", "diversity_helps", "m_gt_1_beats_m_1"} <= set(
-        claims["claim_id"]
-    )
+    assert {
+        "duis_best_every_budget",
+        "duis_best_aubc_matched",
+        "variant_training",
+        "inconsistency_over_diversity",
+        "m_gt_1_beats_m_1",
+    } <= set(claims["claim_id"])
+    assert set(claims["source"]) == {"paper", "extension"}
+    parts = pd.read_csv(cls / "decomposition.csv")
+    for _, block in parts.groupby("point"):
+        total = block.loc[block["part"] == "total", "diff"].iloc[0]
+        assert block.loc[block["part"] != "total", "diff"].sum() == pytest.approx(total)
     assert (claims["verdict"] == "inconclusive").all()
     assert claims["reason"].str.contains("too few seeds").all()
     assert "inconclusive" in (cls / "claims.md").read_text()

@@ -159,7 +159,7 @@ def test_ratio_formatting():
 def test_budget_table_mean_std_hand_computed(df):
     t = budget_table(df)
     assert list(dict.fromkeys(t["row"])) == ["Entropy", "Random", "DUIS"]  # paper order
-    assert list(dict.fromkeys(t["col"])) == ["2.9%", "5.7%", "8.6%"]
+    assert list(dict.fromkeys(t["col"])) == ["2.9% (round 0)", "5.7%", "8.6%"]
     c = cell(t, "Random", "5.7%")
     assert c["mean"] == pytest.approx(52.0)
     assert c["std"] == pytest.approx(math.sqrt(12.0))
@@ -172,19 +172,20 @@ def test_budget_table_mean_std_hand_computed(df):
 
 def test_bold_marks_best_per_column(df):
     md = render_markdown(budget_table(df))
-    assert "| Entropy | **52.0 ± 2.0** | 57.0 ± 2.0 | 66.0 ± 2.0 |" in md
+    # Round 0 (2.9%) holds the same labels for every method: never marked.
+    assert "| Entropy | 52.0 ± 2.0 | 57.0 ± 2.0 | 66.0 ± 2.0 |" in md
     assert "| DUIS | 50.0 ± 2.0 | **62.0 ± 2.0** | **71.0 ± 1.0** |" in md
     tex = render_latex(budget_table(df))
-    assert r"Entropy & \textbf{52.0 $\pm$ 2.0} & 57.0 $\pm$ 2.0" in tex
+    assert r"DUIS & 50.0 $\pm$ 2.0 & \textbf{62.0 $\pm$ 2.0}" in tex
 
 
 def test_unresolved_leader_gets_a_dagger_not_bold():
     # Two seeds: too few for any paired difference to be resolved, however consistent.
-    values = {"random": ((0.500, 0.500),), "duis": ((0.5004, 0.5004),)}
+    values = {"random": ((0.4, 0.4), (0.500, 0.500)), "duis": ((0.4, 0.4), (0.5004, 0.5004))}
     t = budget_table(records_frame(make_records(values)))
-    assert t["mark"].tolist() == ["", "tie"]
+    assert t["mark"].tolist() == ["", "", "", "tie"]  # round 0 unmarked
     md = render_markdown(t)
-    assert "**50.0" not in md and "| DUIS | 50.0 ± 0.0 † |" in md
+    assert "**50.0" not in md and "| DUIS | 40.0 ± 0.0 | 50.0 ± 0.0 † |" in md
     assert "†: the highest mean (every one, when several are equal), not resolved" in md
     assert r"50.0 $\pm$ 0.0$^\dagger$" in render_latex(t)
 
@@ -237,7 +238,7 @@ def test_missing_seed_is_averaged_and_flagged():
     c = cell(t, "DUIS", "8.6%")
     assert (c["n_seeds"], c["n_expected"], bool(c["partial"])) == (2, 3, True)
     assert c["mean"] == pytest.approx(70.5)
-    one = cell(t, "Margin", "2.9%")
+    one = cell(t, "Margin", "2.9% (round 0)")
     assert one["n_seeds"] == 1 and math.isnan(one["std"])
     md = render_markdown(t)
     assert "70.5 ± 0.7 (n=2)" in md
@@ -384,9 +385,10 @@ def test_summary_hand_computed(df, tmp_path):
     s = summary(df)
     assert (s["dataset"], s["metric"], s["n_seeds"]) == ("synth_cls", "accuracy", 3)
     duis = s["methods"]["duis"]
-    # mean curve (0.029, 0.50), (0.057, 0.62), (0.086, 0.71)
-    area = 0.028 * (0.50 + 0.62) / 2 + 0.029 * (0.62 + 0.71) / 2
-    assert duis["auc"] == pytest.approx(area / 0.057)
+    # mean curve of the query rounds 1, 2 (round 0 has the same labels for every method):
+    # (0.057, 0.62), (0.086, 0.71)
+    assert duis["auc"] == pytest.approx((0.62 + 0.71) / 2)
+    assert duis["aubc"]["rounds"] == [1, 2]
     assert duis["final_mean"] == pytest.approx(0.71)
     assert duis["final_std"] == pytest.approx(0.01)
     assert (duis["n_seeds"], duis["n_rounds"], duis["final_n_labeled"]) == (3, 3, 86)

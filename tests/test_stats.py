@@ -252,12 +252,14 @@ def test_aubc_per_seed_skips_incomplete_curves_and_summary_carries_interval():
     # (0.1 * 0.55 + 0.2 * 0.65) / 0.3 + 0.01 s = 0.185 / 0.3 + 0.01 s
     base = 0.185 / 0.3
     assert areas["aubc"].tolist() == pytest.approx([base + 0.01, base + 0.02])
+    # The summary's AUBC covers the query rounds 1-2 only (round 0: the same labels
+    # for every method): ratios 0.2, 0.4, values 0.6, 0.7 -> 0.65 + 0.01 s.
     s = summary(records_frame(recs))["methods"]["a"]["aubc"]
-    assert s["n"] == 2 and s["mean"] == pytest.approx(base + 0.015)
+    assert s["rounds"] == [1, 2] and s["span"] == "rounds 1-2 (20.0-40.0%)"
+    assert s["n"] == 2 and s["mean"] == pytest.approx(0.665)
     half = 12.706204736174707 * 0.01 / math.sqrt(2) / math.sqrt(2)  # t(0.975, 1) sd/sqrt(n)
-    mean = base + 0.015
-    assert (s["ci_low"], s["ci_high"]) == pytest.approx((mean - half, mean + half))
-    assert s["per_seed"] == pytest.approx({"1": base + 0.01, "2": base + 0.02})
+    assert (s["ci_low"], s["ci_high"]) == pytest.approx((0.665 - half, 0.665 + half))
+    assert s["per_seed"] == pytest.approx({"1": 0.66, "2": 0.67})
 
 
 # --- bold / tie -----------------------------------------------------------------------
@@ -281,23 +283,30 @@ def test_leader_bold_only_when_resolved_else_dagger():
     wide = budget_table(
         frame_of({"random": 0.0, "duis": 0.10}, jitter={"duis": (0, 0.002, -0.001)})
     )
-    assert set(wide.loc[wide["method"] == "duis", "mark"]) == {"bold"}
+    # Round 0 gets no mark: its labels are the same for every method.
+    first = wide["round"] == 0
+    assert set(wide.loc[(wide["method"] == "duis") & ~first, "mark"]) == {"bold"}
+    assert (
+        set(wide.loc[first, "mark"]) == {""}
+        and wide.loc[first, "col"].str.endswith("(round 0)").all()
+    )
     assert set(wide.loc[wide["method"] == "random", "mark"]) == {""}
     md = render_markdown(wide)
-    assert md.count("**") == 2 * 3 + 2  # three bold cells and the caption
+    assert md.count("**") == 2 * 2 + 2  # two bold cells (rounds 1, 2) and the caption
     assert "n = 3 seeds per cell" in md and "every seed agrees in direction" in md
 
     close = budget_table(
         frame_of({"random": 0.0, "duis": 0.002}, jitter={"duis": (0.01, -0.012, 0.008)})
     )
-    assert set(close.loc[close["method"] == "duis", "mark"]) == {"tie"}
+    assert set(close.loc[(close["method"] == "duis") & (close["round"] > 0), "mark"]) == {"tie"}
     assert "†" in render_markdown(close)
 
     two_seeds = budget_table(frame_of({"random": 0.0, "duis": 0.10}, seeds=(1, 2)))
     assert set(two_seeds["mark"]) == {"", "tie"}
 
     equal = budget_table(frame_of({"random": 0.0, "entropy": 0.0, "duis": -0.05}))
-    assert set(equal.loc[equal["method"] != "duis", "mark"]) == {"tie"}  # both top means
+    queried = equal["round"] > 0
+    assert set(equal.loc[(equal["method"] != "duis") & queried, "mark"]) == {"tie"}  # top means
     assert set(equal.loc[equal["method"] == "duis", "mark"]) == {""}
 
 
@@ -331,21 +340,23 @@ def verdicts(duis_offset: float, jitter=JITTER) -> dict[str, str]:
     return dict(zip(claims(cmp)["claim_id"], claims(cmp)["verdict"], strict=True))
 
 
-def test_claims_supported_when_better_on_every_seed_by_a_wide_margin():
+def test_claims_seeds_agree_when_better_on_every_seed_by_a_wide_margin():
+    # Three seeds: the small-n rule, so no claim is "supported", only agreed with.
     v = verdicts(+0.10)
     for claim in (
         "duis_best_every_budget",
         "duis_best_aubc",
         "duis_best_every_level",
-        "inconsistency_helps",
+        "inconsistency_over_diversity",
         "m_gt_1_beats_m_1",
         "alpha_half_not_worse",
     ):
-        assert v[claim] == "supported", claim
-    # Syn+Diversity and Syn+Random are equal here, so diversity does not help and the order
-    # (which needs both steps) is inconclusive; N_cand 160 (DUIS) beats 40 with no fall.
-    assert v["diversity_helps"] == "inconclusive" and v["ablation_order"] == "inconclusive"
-    assert v["ncand_grows_to_plateau"] == "supported"
+        assert v[claim] == "seeds agree (untested)", claim
+    # Syn+Diversity and Syn+Random are equal here, so diversity over random is
+    # inconclusive; N_cand 160 (DUIS) beats 40 with no fall.
+    assert v["diversity_over_random"] == "inconclusive"
+    assert v["ncand_grows_to_plateau"] == "seeds agree (untested)"
+    assert "supported" not in v.values() and "contradicted" not in v.values()
 
 
 def test_claims_inconclusive_when_equal_in_distribution():
@@ -353,17 +364,17 @@ def test_claims_inconclusive_when_equal_in_distribution():
     assert set(v.values()) == {"inconclusive"}
 
 
-def test_claims_contradicted_when_worse():
+def test_claims_seeds_against_when_worse():
     v = verdicts(-0.10)
     for claim in (
         "duis_best_every_budget",
         "duis_best_every_level",
-        "inconsistency_helps",
+        "inconsistency_over_diversity",
         "m_gt_1_beats_m_1",
         "alpha_half_not_worse",
         "ncand_grows_to_plateau",
     ):
-        assert v[claim] == "contradicted", claim
+        assert v[claim] == "seeds against (untested)", claim
 
 
 def test_claims_inconclusive_with_too_few_seeds_and_absent_when_not_run():
@@ -381,10 +392,10 @@ MIXED6 = np.array([0.010, -0.005, 0.012, -0.003, 0.008, 0.001])  # unresolved, l
 
 
 def budget_family(diffs, baseline: str = "random") -> pd.DataFrame:
-    """A comparisons frame of DUIS vs ``baseline`` at rounds 0..k-1 with these per-seed
-    differences (DUIS minus baseline, pp), as ``comparisons`` would write it."""
+    """A comparisons frame of DUIS vs ``baseline`` at the query rounds 1..k with these
+    per-seed differences (DUIS minus baseline, pp), as ``comparisons`` would write it."""
     rows = []
-    for r, d in enumerate(diffs):
+    for r, d in enumerate(diffs, start=1):
         d = np.asarray(d, dtype=float)
         rows.append(
             {
@@ -442,10 +453,10 @@ def test_supported_is_intersection_union_without_correction():
     assert budget_claim([UP6, UP6, MIXED6])["verdict"] == "inconclusive"
 
 
-def test_small_n_claims_are_contradicted_without_holm():
+def test_small_n_claims_are_against_without_holm():
     up3 = UP6[:3]  # every seed agrees: p = 0.25, resolved by the small-n rule
     row = budget_claim([-up3, up3 + 0.01, up3 + 0.02])
-    assert row["rule"] == "small-n" and row["verdict"] == "contradicted"
+    assert row["rule"] == "small-n" and row["verdict"] == "seeds against (untested)"
     assert row["reason"] == "a comparison resolved against"
 
 
@@ -472,7 +483,7 @@ def test_claims_table_marks_the_rule_and_shows_seeds_needed():
     assert "**inconclusive**¹" in md and "¹ n >= 6 seeds (5% rule)" in md
     assert "intersection-union" in md and "Holm" in md and "small-n rule" not in md
     three = render_claims_markdown(claims(budget_family([UP6[:3]])))
-    assert "**supported**²" in three and "² n < 6 seeds (small-n rule)" in three
+    assert "**seeds agree (untested)**²" in three and "² n < 6 seeds (small-n rule)" in three
     assert "¹ n >= 6" not in three
 
 

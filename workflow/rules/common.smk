@@ -11,9 +11,11 @@ from spl_al.data.external import folder_has_levels
 from spl_al.labeling import lists_training_rows
 from spl_al.experiment.warm import Server
 from spl_al.experiment.plan import (
+    budget_families,
     check_plan,
     dataset_method,
     dataset_runs,
+    experiments_of,
     method_specs,
     sweep_table_spec,
 )
@@ -415,9 +417,10 @@ def budget_experiment(dataset):
 
 
 def robustness_evals(wildcards):
+    """The map's methods: the paper's family (its baselines and DUIS)."""
     return expand(
         f"{RESULTS}/{wildcards.dataset}/robustness/{{method}}.json",
-        method=budget_experiment(wildcards.dataset)["methods"],
+        method=budget_families(config, wildcards.dataset, METHODS)["paper"],
     )
 
 

@@ -37,7 +37,7 @@ rule table:
         mem_mb=res("table", "mem_mb", 2000),
         runtime=res("table", "runtime", 10),
     params:
-        experiments=lambda w: config["datasets"][w.dataset]["experiments"],
+        experiments=lambda w: experiments_of(config, w.dataset, METHODS),
         sweeps=lambda w: sweep_table_spec(
             config, config["datasets"][w.dataset]["variants"]["n"]
         ),
@@ -67,7 +67,7 @@ rule curves:
         mem_mb=res("curves", "mem_mb", 2000),
         runtime=res("curves", "runtime", 10),
     params:
-        methods=lambda w: config["datasets"][w.dataset]["experiments"]["budget"][
+        methods=lambda w: experiments_of(config, w.dataset, METHODS)["budget"][
             "methods"
         ],
         levels=False,
@@ -90,7 +90,7 @@ use rule curves as level_curves with:
     benchmark:
         f"{RESULTS}/benchmarks/{{dataset}}/level_curves.tsv"
     params:
-        methods=lambda w: config["datasets"][w.dataset]["experiments"]["budget"][
+        methods=lambda w: experiments_of(config, w.dataset, METHODS)["budget"][
             "methods"
         ],
         levels=True,
@@ -118,6 +118,7 @@ rule summary:
         runtime=res("summary", "runtime", 10),
     params:
         notes=lambda w: dataset_notes(w.dataset),
+        families=lambda w: budget_families(config, w.dataset, METHODS),
     script:
         "../scripts/summary.py"
 
@@ -159,6 +160,13 @@ rule stats:
             subcategory="Statistics",
         ),
         claims_md=f"{RESULTS}/{{dataset}}/tables/claims.md",
+        decomposition_csv=report(
+            f"{RESULTS}/{{dataset}}/tables/decomposition.csv",
+            caption="../report/decomposition.rst",
+            category="{dataset}",
+            subcategory="Statistics",
+        ),
+        decomposition_md=f"{RESULTS}/{{dataset}}/tables/decomposition.md",
         aubc_png=report(
             f"{RESULTS}/{{dataset}}/figures/aubc.png",
             caption="../report/aubc.rst",
@@ -177,7 +185,7 @@ rule stats:
         mem_mb=res("stats", "mem_mb", 2000),
         runtime=res("stats", "runtime", 10),
     params:
-        experiments=lambda w: config["datasets"][w.dataset]["experiments"],
+        experiments=lambda w: experiments_of(config, w.dataset, METHODS),
         sweeps=lambda w: sweep_table_spec(
             config, config["datasets"][w.dataset]["variants"]["n"]
         ),

@@ -7,6 +7,7 @@ run_job(
         metrics_paths=snakemake.input.metrics,
         out_path=snakemake.output[0],
         notes=snakemake.params.notes,
+        families=snakemake.params.families,
     ),
     preload=("spl_al.report",),
 )

@@ -52,7 +52,15 @@ FIGURES = (
     ("robustness_diff", "robustness_diff", "DUIS minus the best baseline over MSPPP x SBR"),
 )
 METRIC_NAMES = {"accuracy": "accuracy", "miou": "mIoU"}
-VERDICTS = ("supported", "contradicted", "inconclusive")
+# claims.csv's verdicts, in the order a sentence names them (spl_al.report.claims.VERDICTS)
+VERDICTS = (
+    "supported",
+    "contradicted",
+    "seeds agree (untested)",
+    "seeds against (untested)",
+    "inconclusive",
+)
+NAMED = ("supported", "contradicted", "seeds against (untested)")
 
 
 def datasets(results: Path) -> list[str]:
@@ -101,6 +109,28 @@ def _is_standin(budget: list[dict]) -> bool:
     return any(str(r.get("synthetic_standin", "")).lower() == "true" for r in budget)
 
 
+def _span(summary: dict, methods) -> str:
+    """The rounds and ratios the AUBC of ``methods`` covers, when they share them."""
+    spans = {summary.get("methods", {}).get(m, {}).get("aubc", {}).get("span") for m in methods}
+    spans.discard(None)
+    return f" {spans.pop()}" if len(spans) == 1 else ""
+
+
+def _families(summary: dict, methods: list[str]) -> list[tuple[str, list[str]]]:
+    """(heading, methods) of the budget table's families, matched training first; one
+    group of every method when the run has no matched family."""
+    families = summary.get("families") or {}
+    matched = [m for m in families.get("matched", []) if m in methods]
+    paper = [m for m in families.get("paper", []) if m in methods and m not in matched]
+    if len(matched) < 2:
+        return [("", methods)]
+    rest = [m for m in methods if m not in matched and m not in paper]
+    return [
+        ("matched training (every method trained on the variants)", matched),
+        ("as the paper compares (baselines on observed images only)", paper + rest),
+    ]
+
+
 def _aubc(summary: dict, method: str, scale: float) -> str:
     entry = summary.get("methods", {}).get(method, {}).get("aubc")
     if not entry or entry.get("mean") is None:
@@ -112,20 +142,31 @@ def _aubc(summary: dict, method: str, scale: float) -> str:
 
 
 def compact_table(results: Path, dataset: str) -> list[str]:
-    """Budget columns per method and the AUBC with its 95% interval, as Markdown lines."""
+    """Budget columns per method and the AUBC over the query rounds with its 95%
+    interval, as Markdown lines; the matched-training family first, then the paper's
+    comparison (DUIS in both)."""
     budget = _rows(results / dataset / "tables" / "budget.csv")
     summary = _summary(results, dataset)
     scale = _num(budget[0].get("scale", 100)) if budget else 100.0
     cols = sorted({(int(r["col_pos"]), r["col"]) for r in budget})
-    methods = sorted({(int(r["row_pos"]), r["row"], r["method"]) for r in budget})
+    rows = sorted({(int(r["row_pos"]), r["row"], r["method"]) for r in budget})
+    label = {method: row for _, row, method in rows}
     cells = {(r["row"], r["col"]): r for r in budget}
+    methods = [method for _, _, method in rows]
     lines = [
-        "| Method | " + " | ".join(c for _, c in cols) + " | AUBC [95% CI] |",
+        "| Method | "
+        + " | ".join(c for _, c in cols)
+        + f" | AUBC{_span(summary, methods)} [95% CI] |",
         "|:---|" + "---:|" * len(cols) + "---:|",
     ]
-    for _, row, method in methods:
-        values = [_cell(cells[(row, c)]) if (row, c) in cells else "-" for _, c in cols]
-        lines.append(f"| {row} | " + " | ".join(values) + f" | {_aubc(summary, method, scale)} |")
+    for heading, family in _families(summary, methods):
+        if heading:
+            lines.append(f"| *{heading}* |" + " |" * (len(cols) + 1))
+        for method in family:
+            row = label[method]
+            values = [_cell(cells[(row, c)]) if (row, c) in cells else "-" for _, c in cols]
+            aubc = _aubc(summary, method, scale)
+            lines.append(f"| {row} | " + " | ".join(values) + f" | {aubc} |")
     return lines
 
 
@@ -136,17 +177,25 @@ def claims(results: Path, dataset: str) -> list[dict]:
 
 
 def verdict_line(rows: list[dict]) -> str:
-    """One sentence: how many claims got each verdict, naming the decided ones."""
+    """One sentence per source (the paper's claims, then the extensions): how many
+    claims got each verdict, naming the supported and contradicted ones (and those
+    every seed goes against, below 6 seeds)."""
     if not rows:
-        return "No claim of the paper is checked on this dataset."
-    counts = {v: sum(r["verdict"] == v for r in rows) for v in VERDICTS}
-    parts = [f"{counts[v]} {v}" for v in VERDICTS if counts[v]]
-    text = f"Claims: {', '.join(parts)} (of {len(rows)})."
-    for verdict in ("supported", "contradicted"):
-        named = [r["claim"].rstrip(".") for r in rows if r["verdict"] == verdict]
-        if named:
-            text += f" {verdict.capitalize()}: " + "; ".join(named) + "."
-    return text
+        return "No claim is checked on this dataset."
+    sentences = []
+    for source, title in (("paper", "The paper's claims"), ("extension", "Extensions")):
+        part = [r for r in rows if (r.get("source") or "paper") == source]
+        if not part:
+            continue
+        counts = {v: sum(r["verdict"] == v for r in part) for v in VERDICTS}
+        parts = [f"{counts[v]} {v}" for v in VERDICTS if counts[v]]
+        text = f"{title}: {', '.join(parts)} (of {len(part)})."
+        for verdict in NAMED:
+            named = [r["claim"].rstrip(".") for r in part if r["verdict"] == verdict]
+            if named:
+                text += f" {verdict[:1].upper()}{verdict[1:]}: " + "; ".join(named) + "."
+        sentences.append(text)
+    return " ".join(sentences)
 
 
 def _seeds(summary: dict, budget: list[dict]) -> str:
@@ -300,10 +349,10 @@ def results_block(
         methods = summary.get("methods", {})
         if methods:
             lines += [
-                f"### {dataset}: area under the budget curve",
+                f"### {dataset}: area under the budget curve over the query rounds",
                 "",
-                "| method | AUBC [95% CI] | seeds | final mean ± std |",
-                "|:---|---:|---:|---:|",
+                "| method | rounds | AUBC [95% CI] | seeds | final mean ± std |",
+                "|:---|:---|---:|---:|---:|",
             ]
             names = {r["method"]: r["row"] for r in budget}
             for method, entry in methods.items():
@@ -311,14 +360,18 @@ def results_block(
                     f"{_num(entry.get('final_mean')) * scale:.1f} ± "
                     f"{_num(entry.get('final_std')) * scale:.1f}"
                 )
+                span = (entry.get("aubc") or {}).get("span", "")
                 lines.append(
-                    f"| {names.get(method, method)} | {_aubc(summary, method, scale)} | "
+                    f"| {names.get(method, method)} | {span} | {_aubc(summary, method, scale)} | "
                     f"{entry.get('n_seeds', '')} | {final} |"
                 )
             lines.append("")
+        decomposition = _md_table(results, dataset, "decomposition")
+        if decomposition and not decomposition.startswith("**No decomposition"):
+            lines += [f"### {dataset}: what DUIS's gain is made of", "", decomposition, ""]
         rows = claims(results, dataset)
         if rows:
-            lines += [f"### {dataset}: the paper's claims", "", verdict_line(rows), ""]
+            lines += [f"### {dataset}: claims", "", verdict_line(rows), ""]
             table = _md_table(results, dataset, "claims")
             if table:
                 lines += [table, ""]

@@ -12,6 +12,11 @@ from dataclasses import dataclass, field
 
 SWEEP_PARAMETERS = {"n_cand": "ncand", "alpha": "alpha", "n_variants": "m"}
 
+FULL_METHOD = "duis"
+"""The method the experiments are about: the one both families of a budget table hold."""
+
+MATCHED_PREFIX = "syn_"
+
 
 @dataclass(frozen=True)
 class MethodSpec:
@@ -44,11 +49,19 @@ def sweep_name(base: str, parameter: str, value) -> str:
     return f"{base}_{SWEEP_PARAMETERS[parameter]}{_format_value(value)}"
 
 
+def matched_name(method: str) -> str:
+    """Name of the matched twin of an observed-only method: ``syn_X`` of ``X``."""
+    return f"{MATCHED_PREFIX}{method}"
+
+
 def method_specs(config: dict) -> dict[str, MethodSpec]:
-    """All methods of a config: the named entries plus the generated sweep entries.
+    """All methods of a config: the named entries, the generated sweep entries and the
+    matched twins of budget experiments with ``matched: true``.
 
     A sweep value equal to the base method's own value maps to the base method
-    itself, so the default point is not run twice.
+    itself, so the default point is not run twice. A matched twin ``syn_X`` is X's
+    strategy and parameters trained on the variants like DUIS; a ``syn_X`` entry
+    under ``methods`` is used as it stands.
     """
     specs = {}
     for name, entry in config["methods"].items():
@@ -70,7 +83,56 @@ def method_specs(config: dict) -> dict[str, MethodSpec]:
         else:
             params[point["parameter"]] = point["value"]
         specs[name] = MethodSpec(name, base.strategy, params, base.use_variants, n_variants)
+    for entry in config["datasets"].values():
+        budget = (entry.get("experiments") or {}).get("budget") or {}
+        if not budget.get("matched"):
+            continue
+        for name in budget["methods"]:
+            spec = specs.get(name)
+            twin = matched_name(name)
+            if spec is None or spec.use_variants or twin in specs:
+                continue
+            specs[twin] = MethodSpec(twin, spec.strategy, dict(spec.params), True, spec.n_variants)
     return specs
+
+
+def budget_families(config: dict, dataset: str, specs=None) -> dict[str, list[str]]:
+    """The two families of a dataset's budget experiment, method names in run order.
+
+    ``paper``: the methods trained on observed images only, and DUIS (as the paper
+    compares: DUIS also trains on its variants). ``matched``: every method trained on
+    the variants, DUIS included (the matched twins ``syn_X`` of ``matched: true`` and
+    any variant-trained method named in ``methods``): a comparison in it varies the
+    acquisition alone. Empty lists without a budget experiment.
+    """
+    specs = specs if specs is not None else method_specs(config)
+    budget = (config["datasets"][dataset].get("experiments") or {}).get("budget")
+    if not budget:
+        return {"paper": [], "matched": []}
+    named = [m for m in budget["methods"] if m in specs]
+    observed = [m for m in named if not specs[m].use_variants]
+    twins = [matched_name(m) for m in observed] if budget.get("matched") else []
+    variant = [m for m in named if specs[m].use_variants]
+    matched = list(dict.fromkeys([*twins, *variant]))
+    paper = [*observed, *([FULL_METHOD] if FULL_METHOD in named else [])]
+    return {"paper": paper, "matched": matched}
+
+
+def experiments_of(config: dict, dataset: str, specs=None) -> dict:
+    """A dataset's ``experiments`` as run: the budget experiment's ``methods`` hold the
+    matched twins too (observed-only methods first, then the variant-trained ones,
+    DUIS last) and ``families`` names both families (``budget_families``)."""
+    experiments = dict(config["datasets"][dataset].get("experiments") or {})
+    if "budget" not in experiments:
+        return experiments
+    families = budget_families(config, dataset, specs)
+    methods = [m for m in families["paper"] if m != FULL_METHOD]
+    methods += [m for m in families["matched"] if m != FULL_METHOD]
+    methods += [m for m in experiments["budget"]["methods"] if m not in methods]
+    if FULL_METHOD in methods:
+        methods = [m for m in methods if m != FULL_METHOD] + [FULL_METHOD]
+    experiments["budget"] = {**experiments["budget"], "methods": methods, "families": families}
+    return experiments
 
 
 def dataset_method(config: dict, dataset: str, name: str, specs=None) -> MethodSpec:
@@ -133,7 +195,7 @@ def sweep_table_spec(config: dict, dataset_m: int) -> dict[str, dict]:
 def dataset_runs(config: dict, dataset: str) -> dict[tuple[str, int], int]:
     """(method, seed) -> number of rounds (trainings) the dataset's experiments need."""
     entry = config["datasets"][dataset]
-    exps = entry.get("experiments", {})
+    exps = experiments_of(config, dataset)
     runs: dict[tuple[str, int], int] = {}
 
     def need(methods, seeds, rounds):

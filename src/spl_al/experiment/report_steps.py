@@ -53,29 +53,36 @@ def make_curves(metrics_paths, methods, png, pdf, title: str, per_level: bool = 
     plot(df, png, pdf, methods=methods, title=title)
 
 
-def make_summary(metrics_paths, out_path, notes=()) -> dict:
+def make_summary(metrics_paths, out_path, notes=(), families=None) -> dict:
     """Per method: area under the budget curve and final value (JSON), with ``notes``
-    (one sentence each, e.g. why per-level results are missing)."""
+    (one sentence each, e.g. why per-level results are missing) and the budget
+    experiment's ``families`` ({"paper": [...], "matched": [...]}, when given)."""
     from spl_al import report
 
     result = report.summary(report.load_records(metrics_paths))
     result["notes"] = [str(n) for n in notes]
+    if families:
+        result["families"] = {k: list(v) for k, v in families.items()}
     write_json(result, out_path)
     return result
 
 
 def make_stats(metrics_paths, experiments: dict, sweeps: dict, out: dict) -> None:
-    """Paired statistics of a dataset: ``comparisons`` and ``claims`` (CSV + Markdown)
-    and the AUBC chart. ``out``: paths by name (comparisons_csv, comparisons_md,
-    claims_csv, claims_md, aubc_png, aubc_pdf). Claims are judged on the comparisons
-    as written, so the two files cannot disagree."""
+    """Paired statistics of a dataset: ``comparisons``, ``claims`` and the decomposition
+    of DUIS − Random (CSV + Markdown) and the AUBC chart. ``experiments``: as run
+    (``spl_al.experiment.plan.experiments_of``: the budget's ``families``). ``out``:
+    paths by name (comparisons_csv, comparisons_md, claims_csv, claims_md,
+    decomposition_csv, decomposition_md, aubc_png, aubc_pdf). Claims are judged on the
+    comparisons as written, so the two files cannot disagree."""
     import pandas as pd
 
     from spl_al import report
     from spl_al.atomic import atomic_write_text
     from spl_al.report.claims import claims, render_claims_markdown
     from spl_al.report.comparisons import comparisons, render_comparisons_markdown
+    from spl_al.report.decomposition import decomposition, render_decomposition_markdown
     from spl_al.report.stat_figures import aubc_figure
+    from spl_al.report.stats import query_rounds
 
     df = report.load_records(metrics_paths)
     renamed = {("m" if p == "n_variants" else p): v for p, v in sweeps.items()}
@@ -83,14 +90,18 @@ def make_stats(metrics_paths, experiments: dict, sweeps: dict, out: dict) -> Non
     atomic_write(out["comparisons_csv"], lambda tmp: frame.to_csv(tmp, index=False))
     stored = pd.read_csv(out["comparisons_csv"])
     atomic_write_text(out["comparisons_md"], render_comparisons_markdown(stored))
-    verdicts = claims(stored)
+    budget_exp = experiments.get("budget", {})
+    in_paper = experiments.get("levels", {}).get("in_paper", True)
+    verdicts = claims(stored, budget_exp.get("families"), levels_in_paper=in_paper)
     atomic_write(out["claims_csv"], lambda tmp: verdicts.to_csv(tmp, index=False))
     name = str(df["dataset"].iloc[0])
     atomic_write_text(out["claims_md"], render_claims_markdown(verdicts, dataset=name))
-    methods = experiments.get("budget", {}).get("methods")
+    parts = decomposition(df, int(budget_exp.get("rounds", df["round"].max() + 1)))
+    atomic_write(out["decomposition_csv"], lambda tmp: parts.to_csv(tmp, index=False))
+    atomic_write_text(out["decomposition_md"], render_decomposition_markdown(parts))
+    methods = budget_exp.get("methods")
     budget = df if methods is None else df[df["method"].isin(methods)]
-    if "budget" in experiments:
-        budget = budget[budget["round"] < int(experiments["budget"]["rounds"])]
+    budget = query_rounds(budget, budget_exp.get("rounds"))
     report.save_figure(aubc_figure(budget, methods), out["aubc_png"], out["aubc_pdf"])
 
 

@@ -1,4 +1,14 @@
-"""The paper's claims, checked against one dataset's paired comparisons.
+"""The paper's claims and this project's extensions, checked against one dataset's
+paired comparisons.
+
+Claims about acquisition count the query rounds only (rounds >= 1: round 0 holds the
+same labels for every method). With the budget experiment's two families, each "DUIS
+is best" claim is judged twice: against the paper's baselines, which train on the
+observed images only ("as the paper compares"), and against their matched twins
+Syn+X, which train on the variants like DUIS ("matched training": the comparison
+varies the acquisition alone). The additive decomposition of DUIS − Random
+(``DECOMPOSITION``) gives one claim per part, named for what it tests. ``source``
+says whether the paper states a claim or this project adds it (``SOURCES``).
 
 Each claim is restated in one line and judged from the rows of
 ``spl_al.report.comparisons`` it needs, its *family* (so tables, comparisons and claims
@@ -16,9 +26,10 @@ seeds any comparison of the family pairs up (``rule`` column):
   false contradiction at 5%.
 - **"small-n" rule, 3 <= n < 6 seeds.** No test on n seeds reaches 0.05, so each
   comparison is resolved when every seed agrees and the interval excludes zero
-  (weaker than 5% significance): *supported* when every comparison is resolved in
-  favour, *contradicted* when one is resolved against, without correction (Holm
-  could never reject: its smallest p~ is m * 2/2^n > 0.05).
+  (weaker than 5% significance, and no test): *seeds agree (untested)* when every
+  comparison is resolved in favour, *seeds against (untested)* when one is resolved
+  against, without correction (Holm could never reject: its smallest p~ is
+  m * 2/2^n > 0.05). Nothing below 6 seeds is called supported or contradicted.
 - **inconclusive**: otherwise: too few seeds (n < 3), an interval that spans zero,
   seeds that disagree, or a comparison against that does not survive Holm.
 
@@ -49,6 +60,7 @@ import numpy as np
 import pandas as pd
 
 from spl_al.report.comparisons import comparison_text
+from spl_al.report.decomposition import PARTS
 from spl_al.report.display import ABLATION_LABELS, FULL_METHOD, METRIC_LABELS, method_label
 from spl_al.report.stats import (
     LEVEL,
@@ -65,6 +77,34 @@ MARGIN_PP = 1.0
 """Non-inferiority margin in percentage points of the metric."""
 
 SUPPORTED, CONTRADICTED, INCONCLUSIVE = "supported", "contradicted", "inconclusive"
+AGREE, AGAINST = "seeds agree (untested)", "seeds against (untested)"
+"""The small-n rule's verdicts: below 6 seeds no test reaches 5%, so a claim whose
+comparisons every seed favours is not "supported", only agreed with."""
+VERDICTS = (SUPPORTED, CONTRADICTED, AGREE, AGAINST, INCONCLUSIVE)
+
+PAPER, EXTENSION = "paper", "extension"
+SOURCES = {
+    "duis_best_every_budget": PAPER,
+    "duis_best_every_budget_matched": EXTENSION,
+    "duis_best_aubc": EXTENSION,
+    "duis_best_aubc_matched": EXTENSION,
+    "duis_best_every_level": PAPER,
+    "duis_best_every_level_matched": EXTENSION,
+    "variant_training": EXTENSION,
+    "uncertainty_over_random": EXTENSION,
+    "diversity_over_uncertainty": PAPER,
+    "inconsistency_over_diversity": PAPER,
+    "diversity_over_random": PAPER,
+    "m_gt_1_beats_m_1": PAPER,
+    "ncand_grows_to_plateau": PAPER,
+    "alpha_half_not_worse": PAPER,
+}
+"""Where a claim comes from: ``paper`` (the paper states it: its budget table, per-level
+table, ablation ordering and sensitivity) or ``extension`` (this project asks it: the
+areas under the curve, the matched-training family, the parts of the decomposition
+the paper's ablation does not order)."""
+
+DECOMPOSITION = PARTS
 
 COLUMNS = (
     "claim_id",
@@ -79,6 +119,7 @@ COLUMNS = (
     "min_n",
     "rule",
     "seeds_needed",
+    "source",
     "dataset",
     "metric",
 )
@@ -174,12 +215,15 @@ def _claim(claim_id, text, experiment, rows, verdict, reason=None, focus=None, s
         f"{n_for} of {len(rows)} comparisons resolved for, {n_against} against{holm_note}; "
         f"weakest: {point}{comparison_text(focus)}"
     )
+    reason = reason or _reason(rows, verdict)
+    if _rule(rows) == "small-n":
+        verdict = {SUPPORTED: AGREE, CONTRADICTED: AGAINST}.get(verdict, verdict)
     return {
         "claim_id": claim_id,
         "claim": text,
         "experiment": experiment,
         "verdict": verdict,
-        "reason": reason or _reason(rows, verdict),
+        "reason": reason,
         "evidence": evidence,
         "n_comparisons": len(rows),
         "n_for": n_for,
@@ -202,39 +246,56 @@ def _all_beat(claim_id, text, experiment, rows) -> dict | None:
     return _claim(claim_id, text, experiment, rows, verdict, focus=focus)
 
 
-def _best_method_claims(cmp: pd.DataFrame, metric: str) -> list[dict]:
+def _with_full(rows: pd.DataFrame, family: list[str] | None) -> pd.DataFrame:
+    """Rows of DUIS against a member of ``family`` (None: any method), DUIS as A."""
+    full = (rows["method_a"] == FULL_METHOD) | (rows["method_b"] == FULL_METHOD)
+    if family is not None:
+        other = rows["method_a"].where(rows["method_b"] == FULL_METHOD, rows["method_b"])
+        full &= other.isin([m for m in family if m != FULL_METHOD])
+    return _oriented(rows[full], lambda r: FULL_METHOD)
+
+
+def _best_method_claims(cmp: pd.DataFrame, metric: str, families) -> list[dict]:
+    """DUIS best at every query round, in AUBC over the query rounds and on every MSPPP
+    split: against the paper's baselines and, when the run has them, against the
+    matched family (the same acquisitions trained on the variants)."""
+    budget = cmp[cmp["experiment"] == "budget"]
+    queried = budget[(budget["point"] != "AUBC") & (budget["round"].astype(float) >= 1)]
+    area = budget[budget["point"] == "AUBC"]
+    span = f" ({area['span'].iloc[0]})" if "span" in area and not area.empty else ""
+    levels = cmp[cmp["experiment"] == "levels"]
+    at = f" at round {int(levels['round'].iloc[0])}" if not levels.empty else ""
     out = []
-    rows = cmp[(cmp["experiment"] == "budget") & (cmp["point"] != "AUBC")]
-    rows = rows[(rows["method_a"] == FULL_METHOD) | (rows["method_b"] == FULL_METHOD)]
-    out.append(
-        _all_beat(
-            "duis_best_every_budget",
-            f"DUIS has the highest {metric} at every labeling budget.",
-            "budget",
-            _oriented(rows, lambda r: FULL_METHOD),
-        )
-    )
-    rows = cmp[(cmp["experiment"] == "budget") & (cmp["point"] == "AUBC")]
-    rows = rows[(rows["method_a"] == FULL_METHOD) | (rows["method_b"] == FULL_METHOD)]
-    out.append(
-        _all_beat(
-            "duis_best_aubc",
-            f"DUIS has the largest area under the {metric} budget curve.",
-            "budget",
-            _oriented(rows, lambda r: FULL_METHOD),
-        )
-    )
-    rows = cmp[cmp["experiment"] == "levels"]
-    rows = rows[(rows["method_a"] == FULL_METHOD) | (rows["method_b"] == FULL_METHOD)]
-    at = f" at round {int(rows['round'].iloc[0])}" if not rows.empty else ""
-    out.append(
-        _all_beat(
-            "duis_best_every_level",
-            f"DUIS has the highest {metric} on every MSPPP split{at}.",
-            "levels",
-            _oriented(rows, lambda r: FULL_METHOD),
-        )
-    )
+    groups = [("", None, "")]
+    if families:
+        groups = [
+            ("", families.get("paper"), "as the paper compares"),
+            ("_matched", families.get("matched"), "matched training"),
+        ]
+    for suffix, family, against in groups:
+        if family is not None and len([m for m in family if m != FULL_METHOD]) == 0:
+            continue
+        tag = f", {against}" if families else ""
+        out += [
+            _all_beat(
+                f"duis_best_every_budget{suffix}",
+                f"DUIS has the highest {metric} at every query round{tag}.",
+                "budget",
+                _with_full(queried, family),
+            ),
+            _all_beat(
+                f"duis_best_aubc{suffix}",
+                f"DUIS has the largest AUBC over query rounds{span}{tag}.",
+                "budget",
+                _with_full(area, family),
+            ),
+            _all_beat(
+                f"duis_best_every_level{suffix}",
+                f"DUIS has the highest {metric} on every MSPPP split{at}{tag}.",
+                "levels",
+                _with_full(levels, family),
+            ),
+        ]
     return out
 
 
@@ -246,33 +307,30 @@ def _pair(cmp: pd.DataFrame, experiment: str, a: str, b: str) -> pd.DataFrame:
     return _oriented(rows[pick], lambda r: a)
 
 
-def _ablation_claims(cmp: pd.DataFrame) -> list[dict]:
-    div = _pair(cmp, "ablation", "syn_diversity", "syn_random")
-    inc = _pair(cmp, "ablation", FULL_METHOD, "syn_diversity")
-    full, syn_div, syn_rand = (
-        method_label(m, ABLATION_LABELS) for m in (FULL_METHOD, "syn_diversity", "syn_random")
-    )
-    out = [
-        _all_beat(
-            "diversity_helps", f"{syn_div} beats {syn_rand} (diversity helps).", "ablation", div
-        ),
-        _all_beat(
-            "inconsistency_helps",
-            f"{full} beats {syn_div} (inconsistency helps).",
-            "ablation",
-            inc,
-        ),
-    ]
-    if not div.empty and not inc.empty:
-        both = pd.concat([inc, div], ignore_index=True)
-        out.append(
-            _all_beat(
-                "ablation_order",
-                f"Ablation order {full} >= {syn_div} >= {syn_rand}.",
-                "ablation",
-                both,
-            )
-        )
+def _decomposition_claims(cmp: pd.DataFrame) -> list[dict]:
+    """Each part of DUIS − Random beats zero: on the AUBC over the query rounds when the
+    budget experiment runs every method of ``DECOMPOSITION``, else at the ablation round
+    (where the paper's ablation lacks Random and Syn+Margin, the parts it has)."""
+    budget = cmp[(cmp["experiment"] == "budget") & (cmp["point"] == "AUBC")]
+    names = set(budget["method_a"]) | set(budget["method_b"])
+    if all(a in names and b in names for _, a, b, _ in DECOMPOSITION):
+        rows, where = budget, "AUBC over query rounds"
+    else:
+        rows = cmp[cmp["experiment"] == "ablation"]
+        where = f"at round {int(rows['round'].iloc[0])}" if not rows.empty else ""
+    experiment = str(rows["experiment"].iloc[0]) if not rows.empty else "ablation"
+    labels = ABLATION_LABELS if experiment == "ablation" else None
+    parts = list(DECOMPOSITION)
+    if experiment == "ablation":  # the paper's ablation: diversity against random
+        parts = [
+            ("diversity_over_random", "syn_diversity", "syn_random", "diversity over random"),
+            *[p for p in parts if p[0] == "inconsistency_over_diversity"],
+        ]
+    out = []
+    for claim_id, a, b, what in parts:
+        pair = _pair(rows, experiment, a, b)
+        text = f"{method_label(a, labels)} beats {method_label(b, labels)}, {where} ({what} helps)."
+        out.append(_all_beat(claim_id, text, experiment, pair))
     return out
 
 
@@ -367,10 +425,18 @@ def _ncand_claim(cmp: pd.DataFrame) -> dict | None:
     )
 
 
-def claims(cmp: pd.DataFrame) -> pd.DataFrame:
-    """The paper's claims judged on one dataset's comparisons frame (see module docstring).
+def claims(
+    cmp: pd.DataFrame, families: dict | None = None, *, levels_in_paper: bool = True
+) -> pd.DataFrame:
+    """The paper's claims and this project's extensions judged on one dataset's
+    comparisons frame (see module docstring).
 
-    Returns one row per claim whose comparisons exist, columns ``COLUMNS``.
+    ``families``: {"paper": [...], "matched": [...]}, the budget experiment's two
+    families (``spl_al.experiment.plan.budget_families``); None: one family, every
+    budget method. ``levels_in_paper``: whether the paper reports a per-MSPPP-level
+    split for this protocol (it does for its real and segmentation data, not for its
+    synthetic classification). Returns one row per claim whose comparisons exist,
+    columns ``COLUMNS``; ``source`` is ``paper`` or ``extension`` (``SOURCES``).
     """
     if cmp.empty:
         return pd.DataFrame(columns=list(COLUMNS))
@@ -378,13 +444,18 @@ def claims(cmp: pd.DataFrame) -> pd.DataFrame:
     metric = METRIC_LABELS.get(first["metric"], first["metric"])
     metric = "mIoU" if first["metric"] == "miou" else metric.lower()
     rows = [
-        *_best_method_claims(cmp, metric),
-        *_ablation_claims(cmp),
+        *_best_method_claims(cmp, metric, families or {}),
+        *_decomposition_claims(cmp),
         _m_claim(cmp),
         _ncand_claim(cmp),
         _alpha_claim(cmp),
     ]
-    frame = pd.DataFrame([r for r in rows if r is not None], columns=list(COLUMNS)[:-2])
+    rows = [r for r in rows if r is not None]
+    for row in rows:
+        row["source"] = SOURCES.get(row["claim_id"], EXTENSION)
+        if row["claim_id"] == "duis_best_every_level" and not levels_in_paper:
+            row["source"] = EXTENSION
+    frame = pd.DataFrame(rows, columns=list(COLUMNS)[:-2])
     frame["dataset"] = first["dataset"]
     frame["metric"] = first["metric"]
     return frame[list(COLUMNS)]
@@ -408,8 +479,9 @@ def rule_notes() -> dict[str, str]:
             f"n < {n6} seeds (small-n rule): no test on so few seeds reaches 0.05, so a "
             "comparison is resolved when every seed agrees in direction and its 95% "
             "interval excludes zero (p = 2/2^n, 0.25 at n = 3), weaker than 5% "
-            "significance; supported: all resolved in favour; contradicted: one resolved "
-            f"against, no correction; fewer than {MIN_SEEDS} seeds never resolve."
+            f"significance and no test: '{AGREE}' when all are resolved in favour, "
+            f"'{AGAINST}' when one is resolved against (no correction); fewer than "
+            f"{MIN_SEEDS} seeds never resolve."
         ),
     }
 
@@ -436,20 +508,31 @@ def claims_rule_text() -> str:
 
 
 def render_claims_markdown(frame: pd.DataFrame, dataset: str | None = None) -> str:
-    """Markdown of a claims frame: claim, verdict marked with its rule, reason, seeds
-    needed, evidence; a footnote per rule the table uses, then the seeds-needed note."""
+    """Markdown of a claims frame, the paper's claims first, then this project's
+    extensions: claim, verdict marked with its rule, reason, seeds needed, evidence; a
+    footnote per rule the table uses, then the seeds-needed note."""
     name = dataset or (frame["dataset"].iloc[0] if not frame.empty else "")
-    lines = [f"**The paper's claims checked on {name}.**", ""]
+    lines = [f"**Claims checked on {name}.**"]
     if frame.empty:
-        return "\n".join([*lines, "No claim's experiment is configured for this dataset."]) + "\n"
-    lines += [
-        "| Claim | Verdict | Why | Seeds needed (80% power) | Evidence |",
-        "|:---|:---|:---|---:|:---|",
-    ]
-    for _, row in frame.iterrows():
-        verdict = f"**{row['verdict']}**{_MARKS.get(row['rule'], '')}"
-        cells = [row["claim"], verdict, row["reason"], row["seeds_needed"], row["evidence"]]
-        lines.append("| " + " | ".join(str(c).replace("|", r"\|") for c in cells) + " |")
+        return (
+            "\n".join([*lines, "", "No claim's experiment is configured for this dataset."]) + "\n"
+        )
+    sources = frame["source"] if "source" in frame else pd.Series(PAPER, index=frame.index)
+    for source, title in ((PAPER, "The paper's claims"), (EXTENSION, "Extensions")):
+        part = frame[sources.fillna(PAPER) == source]
+        if part.empty:
+            continue
+        lines += [
+            "",
+            f"*{title}*",
+            "",
+            "| Claim | Verdict | Why | Seeds needed (80% power) | Evidence |",
+            "|:---|:---|:---|---:|:---|",
+        ]
+        for _, row in part.iterrows():
+            verdict = f"**{row['verdict']}**{_MARKS.get(row['rule'], '')}"
+            cells = [row["claim"], verdict, row["reason"], row["seeds_needed"], row["evidence"]]
+            lines.append("| " + " | ".join(str(c).replace("|", r"\|") for c in cells) + " |")
     notes = rule_notes()
     for rule in [r for r in _MARKS if r in set(frame["rule"])]:
         lines += ["", f"{_MARKS[rule]} {notes[rule]}"]

@@ -2,14 +2,17 @@
 
 ``comparisons(df, experiments, sweeps)`` runs ``spl_al.report.stats.pairwise`` at each
 point the tables show: the budget table's rounds and the area under the budget curve
-(AUBC), each MSPPP level at the levels round, the ablation round, and each swept
-parameter at its round. One row per (point, pair of methods), in percentage points
-(metric x 100); ``tables/comparisons.csv`` is this frame and the claims read it.
+over the query rounds (AUBC, rounds >= 1: round 0 holds the same labels for every
+method; ``span`` says which rounds and ratios it covers), each MSPPP level at the
+levels round, the ablation round, and each swept parameter at its round. One row per
+(point, pair of methods), in percentage points (metric x 100);
+``tables/comparisons.csv`` is this frame and the claims read it.
 
 Columns: experiment, point, parameter, round, n_labeled, method_a, method_b, value_a,
 value_b, n, mean_a, mean_b, diff (mean of A - B over paired seeds), sd_diff (sd of the
 paired differences), ci_low, ci_high, p_value, p_min, rule ("5%" from 6 seeds, else
-"small-n"), resolved, direction, dataset, metric, scale, synthetic_standin.
+"small-n"), resolved, direction, span (AUBC rows: the rounds and ratios covered),
+dataset, metric, scale, synthetic_standin.
 """
 
 from __future__ import annotations
@@ -21,7 +24,7 @@ import pandas as pd
 
 from spl_al.report.display import LEVEL_LABELS, METRIC_LABELS, format_ratio, method_label
 from spl_al.report.records import LEVELS, one_dataset
-from spl_al.report.stats import aubc_per_seed, pairwise, rule_text
+from spl_al.report.stats import aubc_per_seed, pairwise, query_rounds, rule_text, span_text
 
 COLUMNS = (
     "experiment",
@@ -45,6 +48,7 @@ COLUMNS = (
     "rule",
     "resolved",
     "direction",
+    "span",
     "dataset",
     "metric",
     "scale",
@@ -104,9 +108,9 @@ def comparisons(
                 round=r,
                 n_labeled=n_lab,
             )
-        curves = d[d["method"].isin(methods) & (d["round"] < int(budget["rounds"]))]
+        curves = query_rounds(d[d["method"].isin(methods)], int(budget["rounds"]))
         area = aubc_per_seed(curves).rename(columns={"aubc": "value"})
-        rows += _rows(area, methods, experiment="budget", point="AUBC")
+        rows += _rows(area, methods, experiment="budget", point="AUBC", span=span_text(curves))
 
         levels = experiments.get("levels")
         if levels:
@@ -163,6 +167,7 @@ def comparisons(
     for col in ("round", "n_labeled"):
         frame[col] = pd.array(frame[col], dtype="Int64")
     frame["resolved"] = frame["resolved"].astype(bool)
+    frame["span"] = frame["span"].fillna("")
     frame["dataset"] = d["dataset"].iloc[0]
     frame["metric"] = d["metric"].iloc[0]
     frame["scale"] = scale
@@ -212,8 +217,11 @@ def render_comparisons_markdown(frame: pd.DataFrame) -> str:
             if row["resolved"]:
                 verdict = "A better" if row["direction"] > 0 else "B better"
                 verdict += f" ({row['rule']} rule)"
+            point = row["point"]
+            if isinstance(row.get("span"), str) and row["span"]:
+                point += f", {row['span']}"
             lines.append(
-                f"| {row['point']} | {names} | {int(row['n'])} | {_num(row['diff'])} "
+                f"| {point} | {names} | {int(row['n'])} | {_num(row['diff'])} "
                 f"[{_num(row['ci_low'])}, {_num(row['ci_high'])}] | "
                 f"{_num(row['p_value'], '.3g')} ({_num(row['p_min'], '.3g')}) | {verdict} |"
             )

@@ -13,7 +13,7 @@ import pandas as pd
 from spl_al.report.curves import _new_figure
 from spl_al.report.display import METRIC_LABELS, method_colors, method_label, ordered_methods
 from spl_al.report.records import one_dataset
-from spl_al.report.stats import aubc_per_seed, mean_interval
+from spl_al.report.stats import aubc_per_seed, mean_interval, span_text
 
 
 def _metric_name(metric: str) -> str:
@@ -24,7 +24,8 @@ def aubc_figure(df: pd.DataFrame, methods: Sequence[str] | None = None, dataset=
     """AUBC (percent) per method: every seed as a dot, the mean with its 95% t-interval.
 
     ``methods``: the budget methods in display order (default: every method of ``df``);
-    each method's curve spans the same rounds as the others'.
+    each method's curve spans the same rounds as the others' (``df`` holds the rounds
+    to integrate: the query rounds), named in the title.
     """
     d = one_dataset(df, dataset)
     methods = list(methods) if methods is not None else ordered_methods(d["method"])
@@ -55,8 +56,9 @@ def aubc_figure(df: pd.DataFrame, methods: Sequence[str] | None = None, dataset=
     n = int(areas["seed"].nunique()) if not areas.empty else 0
     metric = _metric_name(d["metric"].iloc[0])
     standin = ", synthetic stand-in" if bool(d["synthetic_standin"].any()) else ""
+    span = span_text(d[d["method"].isin(methods)])
     ax.set_title(
-        f"{d['dataset'].iloc[0]}{standin}: area under the budget curve\n"
+        f"{d['dataset'].iloc[0]}{standin}: area under the budget curve, {span}\n"
         f"mean and 95% t-interval over n = {n} seeds; small dots: single seeds",
         fontsize=10,
     )

@@ -316,6 +316,31 @@ def aubc_per_seed(df: pd.DataFrame, value_col: str = "value") -> pd.DataFrame:
     return pd.DataFrame(rows, columns=cols)
 
 
+def query_rounds(df: pd.DataFrame, n_rounds: int | None = None) -> pd.DataFrame:
+    """The records of the query rounds: rounds >= 1 (and < ``n_rounds`` when given).
+
+    Round 0 holds the same labels for every method of a seed, chosen before any query,
+    so an area or a claim about acquisition counts rounds >= 1 only. A frame without
+    a round >= 1 is returned as it is (its area is then round 0's own value).
+    """
+    keep = df["round"] >= 1
+    if n_rounds is not None:
+        keep &= df["round"] < int(n_rounds)
+    return df[keep] if keep.any() else df
+
+
+def span_text(df: pd.DataFrame) -> str:
+    """The rounds and labeling ratios a records frame covers: 'rounds 1-3 (3.6-7.3%)'."""
+    if df.empty:
+        return ""
+    lo, hi = int(df["round"].min()), int(df["round"].max())
+    r_lo = 100 * float(df.loc[df["round"] == lo, "ratio"].mean())
+    r_hi = 100 * float(df.loc[df["round"] == hi, "ratio"].mean())
+    if lo == hi:
+        return f"round {lo} ({r_lo:.1f}%)"
+    return f"rounds {lo}-{hi} ({r_lo:.1f}-{r_hi:.1f}%)"
+
+
 def mean_interval(values, level: float = LEVEL) -> dict:
     """Mean of one method's per-seed values with its t-interval: mean, ci_low, ci_high, n."""
     v = np.asarray(values, dtype=float)

@@ -9,7 +9,13 @@ import pandas as pd
 from spl_al.report.aggregate import method_curves
 from spl_al.report.display import ordered_methods
 from spl_al.report.records import one_dataset
-from spl_al.report.stats import aubc_per_seed, curve_area, mean_interval
+from spl_al.report.stats import (
+    aubc_per_seed,
+    curve_area,
+    mean_interval,
+    query_rounds,
+    span_text,
+)
 
 
 def _num(x) -> float | None:
@@ -17,9 +23,11 @@ def _num(x) -> float | None:
     return x if math.isfinite(x) else None
 
 
-def _aubc(areas: pd.DataFrame) -> dict:
+def _aubc(areas: pd.DataFrame, span: pd.DataFrame) -> dict:
     stats = mean_interval(areas["aubc"])
     return {
+        "rounds": [int(span["round"].min()), int(span["round"].max())],
+        "span": span_text(span),
         "mean": _num(stats["mean"]) if stats["n"] else None,
         "ci_low": _num(stats["ci_low"]),
         "ci_high": _num(stats["ci_high"]),
@@ -40,18 +48,21 @@ def summary(df: pd.DataFrame, dataset: str | None = None) -> dict:
     round; ``partial_rounds`` lists rounds with fewer seeds than the method has; a
     std over one seed is null. ``aubc`` is the per-seed area under the budget curve
     (``spl_al.report.stats.aubc_per_seed``): its mean, 95% t-interval (null for one
-    seed), n and the value of each seed.
+    seed), n, the value of each seed, and the ``rounds`` [first, last] and ``span``
+    (rounds and ratios in words) it covers. ``auc`` and ``aubc`` cover the query rounds
+    (>= 1) of the method: round 0 holds the same labels for every method.
     """
     d = one_dataset(df, dataset)
     curves = method_curves(d)
-    areas = aubc_per_seed(d)
     methods = {}
     for method in ordered_methods(d["method"]):
         c = curves[curves["method"] == method].sort_values("round")
+        mine = query_rounds(d[d["method"] == method])
         n_seeds = int(d.loc[d["method"] == method, "seed"].nunique())
         last = c.iloc[-1]
+        queried = c[c["round"].isin(mine["round"].unique())]
         methods[method] = {
-            "auc": curve_area(c["ratio"], c["mean"]),
+            "auc": curve_area(queried["ratio"], queried["mean"]),
             "final_mean": _num(last["mean"]),
             "final_std": _num(last["std"]),
             "final_round": int(last["round"]),
@@ -60,7 +71,7 @@ def summary(df: pd.DataFrame, dataset: str | None = None) -> dict:
             "n_seeds": n_seeds,
             "n_rounds": len(c),
             "partial_rounds": [int(r) for r in c.loc[c["n_seeds"] < n_seeds, "round"]],
-            "aubc": _aubc(areas[areas["method"] == method]),
+            "aubc": _aubc(aubc_per_seed(mine), mine),
         }
     return {
         "dataset": str(d["dataset"].iloc[0]),

@@ -40,6 +40,9 @@ from spl_al.report.display import (
 from spl_al.report.records import LEVELS, one_dataset, round_for_budget
 from spl_al.report.stats import leader_test
 
+ROUND0_MARK = " (round 0)"
+"""Suffix of the budget table's round-0 column: before any query."""
+
 TABLE_COLUMNS = (
     "method",
     "round",
@@ -121,6 +124,8 @@ def _leader_marks(frame: pd.DataFrame, d: pd.DataFrame, by: str) -> pd.Series:
     in the records ``d`` at the cell's round (and MSPPP level)."""
     marks = pd.Series("", index=frame.index, dtype=object)
     valued = frame[(frame["n_seeds"] > 0) & (frame["col_pos"] >= 0)]
+    if (frame["table"] == "budget").all():  # round 0: the same labels for every method
+        valued = valued[valued["round"].fillna(-1) != 0]
     for _, group in valued.groupby(by, sort=False):
         parts = []
         for _, cell in group.iterrows():
@@ -173,6 +178,8 @@ def budget_table(
     Columns are the distinct n_labeled of the chosen ``rounds`` (default: all), labelled
     by labeling ratio like the paper ("2.9%"); rows follow ``methods`` (default: every
     method of ``df`` in the paper's order, DUIS last). The paper's segmentation table.
+    Round 0's column is labelled "(round 0)" and gets no leader mark: its labels are the
+    same for every method, so it says nothing about acquisition.
     """
     scale = _check_scale(metric_scale)
     full = one_dataset(df, dataset)
@@ -186,6 +193,8 @@ def budget_table(
 
     budgets = curves.groupby("n_labeled")["ratio"].mean().sort_index()
     col_labels = dict(zip(budgets.index, unique_ratio_labels(budgets.to_numpy()), strict=True))
+    for n in set(curves.loc[curves["round"] == 0, "n_labeled"]):
+        col_labels[n] += ROUND0_MARK
     col_pos = {n: i for i, n in enumerate(budgets.index)}
     labels = dict(labels or METHOD_LABELS)
 

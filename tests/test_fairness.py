@@ -1,0 +1,201 @@
+"""Matched training and the decomposition of DUIS − Random: what a reader of the
+budget tables relies on to tell acquisition from training."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+import pytest
+import yaml
+
+from spl_al.experiment.plan import budget_families, dataset_runs, experiments_of, method_specs
+from spl_al.report import records_frame
+from spl_al.report.claims import claims, render_claims_markdown
+from spl_al.report.comparisons import comparisons
+from spl_al.report.decomposition import METHODS, PARTS, decomposition
+
+N_TOTAL = 1000
+
+
+def config_with(budget: dict) -> dict:
+    return {
+        "methods": {
+            "random": {"strategy": "random"},
+            "margin": {"strategy": "margin", "params": {"k": 1}},
+            "badge": {"strategy": "badge"},
+            "syn_diversity": {
+                "strategy": "diversity",
+                "params": {"n_cand": 40},
+                "use_variants": True,
+            },
+            "duis": {"strategy": "duis", "params": {"n_cand": 40}, "use_variants": True},
+        },
+        "datasets": {"d": {"variants": {"n": 4}, "experiments": {"budget": budget}}},
+    }
+
+
+def test_matched_twins_train_on_variants_with_the_same_acquisition():
+    budget = {
+        "methods": ["random", "margin", "badge", "syn_diversity", "duis"],
+        "seeds": [1, 2],
+        "rounds": 3,
+        "matched": True,
+    }
+    config = config_with(budget)
+    specs = method_specs(config)
+    for name in ("random", "margin", "badge"):
+        twin = specs[f"syn_{name}"]
+        assert twin.use_variants and not specs[name].use_variants
+        assert (twin.strategy, twin.params) == (specs[name].strategy, specs[name].params)
+    families = budget_families(config, "d")
+    assert families == {
+        "paper": ["random", "margin", "badge", "duis"],
+        "matched": ["syn_random", "syn_margin", "syn_badge", "syn_diversity", "duis"],
+    }
+    run = experiments_of(config, "d")["budget"]["methods"]
+    assert run[-1] == "duis" and set(run) == set(families["paper"]) | set(families["matched"])
+    # every method of both families runs every round at every seed
+    assert dataset_runs(config, "d") == {(m, s): 3 for m in run for s in (1, 2)}
+
+
+def test_without_matched_no_twin_is_run():
+    config = config_with({"methods": ["random", "duis"], "seeds": [1], "rounds": 2})
+    assert "syn_random" not in method_specs(config)
+    assert budget_families(config, "d") == {"paper": ["random", "duis"], "matched": ["duis"]}
+    assert set(dataset_runs(config, "d")) == {("random", 1), ("duis", 1)}
+
+
+def test_default_config_runs_the_matched_family_and_the_decomposition():
+    root = Path(__file__).resolve().parents[1]
+    config = yaml.safe_load((root / "config" / "config.yaml").read_text())
+    for dataset in ("real_cls", "synth_cls"):
+        budget = experiments_of(config, dataset)["budget"]
+        assert set(METHODS) <= set(budget["methods"]), dataset
+        assert {f"syn_{m}" for m in budget["families"]["paper"] if m != "duis"} <= set(
+            budget["families"]["matched"]
+        )
+
+
+# --- records with known per-seed values ---------------------------------------------------
+
+SEEDS = (1, 2, 3, 4, 5, 6)
+RNG = np.random.default_rng(7)
+# accuracy per method at rounds 0..3 and seed: a base curve, a method offset, seed noise
+OFFSET = {
+    "random": 0.0,
+    "syn_random": 0.04,
+    "syn_margin": 0.05,
+    "syn_diversity": 0.055,
+    "duis": 0.06,
+    "margin": 0.01,
+}
+NOISE = {(m, s, r): RNG.normal(0, 0.01) for m in OFFSET for s in SEEDS for r in range(4)}
+
+
+def records(methods=OFFSET, seeds=SEEDS) -> pd.DataFrame:
+    recs = []
+    for m in methods:
+        for s in seeds:
+            for r in range(4):
+                n = 20 * (r + 1)
+                # round 0: the same labels and (per family) the same model
+                off = 0.0 if r == 0 else OFFSET[m]
+                v = 0.4 + 0.1 * r + off + (NOISE[(m, s, r)] if r else NOISE[("random", s, 0)])
+                recs.append(
+                    {
+                        "dataset": "d",
+                        "method": m,
+                        "seed": s,
+                        "round": r,
+                        "n_labeled": n,
+                        "n_total": N_TOTAL,
+                        "metric": "accuracy",
+                        "value": round(float(v), 6),
+                        "synthetic_standin": False,
+                    }
+                )
+    return records_frame(recs)
+
+
+def test_decomposition_parts_sum_exactly_to_duis_minus_random():
+    frame = decomposition(records(), n_rounds=4)
+    points = list(dict.fromkeys(frame["point"]))
+    assert points == [
+        "round 1 (4.0%)",
+        "round 2 (6.0%)",
+        "round 3 (8.0%)",
+        "AUBC, rounds 1-3 (4.0-8.0%)",
+    ]
+    df = records()
+    for point, block in frame.groupby("point", sort=False):
+        parts = block[block["part"] != "total"]
+        total = block[block["part"] == "total"].iloc[0]
+        assert list(parts["part"]) == [p[0] for p in PARTS]
+        assert parts["diff"].sum() == pytest.approx(total["diff"], abs=1e-9), point
+        assert (block["n"] == len(SEEDS)).all()
+        if point.startswith("round"):  # the total is the paired mean of DUIS − Random
+            r = int(total["round"])
+            at = df[df["round"] == r].pivot(index="seed", columns="method", values="value")
+            assert total["diff"] == pytest.approx(100 * (at["duis"] - at["random"]).mean())
+    # variant training dominates in these records and is resolved at 5% on six seeds
+    aubc = frame[frame["point"].str.startswith("AUBC")].set_index("part")
+    assert aubc.loc["variant_training", "resolved"] and aubc.loc["total", "rule"] == "5%"
+    assert aubc.loc["variant_training", "diff"] == pytest.approx(4.0, abs=1.0)
+
+
+def test_decomposition_uses_only_seeds_where_all_five_ran():
+    df = records()
+    df = df[~((df["method"] == "syn_margin") & (df["seed"] == 6))]
+    frame = decomposition(df, n_rounds=4)
+    assert (frame["n"] == 5).all()
+    for _, block in frame.groupby("point"):
+        parts = block[block["part"] != "total"]["diff"].sum()
+        assert parts == pytest.approx(block[block["part"] == "total"]["diff"].iloc[0])
+
+
+def test_decomposition_is_empty_without_its_methods():
+    frame = decomposition(records(methods=["random", "duis"]), n_rounds=4)
+    assert frame.empty
+
+
+def test_claims_over_query_rounds_in_both_families():
+    df = records()
+    budget = {
+        "methods": ["random", "margin", "syn_random", "syn_margin", "syn_diversity", "duis"],
+        "seeds": list(SEEDS),
+        "rounds": 4,
+    }
+    families = {
+        "paper": ["random", "margin", "duis"],
+        "matched": ["syn_random", "syn_margin", "syn_diversity", "duis"],
+    }
+    cmp = comparisons(df, {"budget": budget}, {})
+    stored = cmp.assign(span=cmp["span"].replace("", np.nan))  # as read back from CSV
+    out = claims(stored, families).set_index("claim_id")
+    # round 0 is never evidence: the every-budget claims count rounds 1-3 only
+    assert out.loc["duis_best_every_budget", "n_comparisons"] == 2 * 3
+    assert out.loc["duis_best_every_budget_matched", "n_comparisons"] == 3 * 3
+    assert "rounds 1-3" in out.loc["duis_best_aubc_matched", "claim"]
+    assert "matched training" in out.loc["duis_best_aubc_matched", "claim"]
+    # DUIS is far above the paper's baselines, barely above Syn+Diversity
+    assert out.loc["duis_best_aubc", "verdict"] == "supported"
+    assert out.loc["duis_best_aubc_matched", "verdict"] != "supported"
+    # each part of the decomposition is a claim named for what it tests
+    assert out.loc["variant_training", "verdict"] == "supported"
+    assert {p[0] for p in PARTS} <= set(out.index)
+    assert out.loc["duis_best_every_budget", "source"] == "paper"
+    assert out.loc["duis_best_aubc", "source"] == "extension"
+    assert out.loc["inconsistency_over_diversity", "source"] == "paper"
+    md = render_claims_markdown(out.reset_index())
+    assert md.index("*The paper's claims*") < md.index("*Extensions*")
+
+
+def test_small_n_never_says_supported():
+    df = records(seeds=(1, 2, 3))
+    budget = {"methods": ["random", "duis"], "seeds": [1, 2, 3], "rounds": 4}
+    out = claims(comparisons(df, {"budget": budget}, {}))
+    assert set(out["rule"]) == {"small-n"}
+    assert not set(out["verdict"]) & {"supported", "contradicted"}
+    assert "seeds agree (untested)" in set(out["verdict"])
