@@ -225,12 +225,12 @@ def train_initial(
     seed, so all methods that use ``n_variants`` variants per group (0: observed
     images only) would train the same model; ``train_round`` reuses this one instead
     (``initial``). Writes the weights and ``out.record`` (test metrics, training
-    images, steps, images seen and seconds, precision, what a metrics record needs of
-    the dataset). With
-    ``out.scores`` it also scores the unlabeled pool for every strategy at once:
-    every need on the observed images (batched as ``score_pool`` batches them for one
-    strategy, so each method's part is what it would compute itself) and, when
-    ``n_variants`` > 0, the group needs on the M = ``n_variants`` variants.
+    images, optimiser steps, images seen and seconds, precision, what a metrics record
+    needs of the dataset). With ``out.scores`` it also scores the unlabeled pool for
+    every strategy at once: every need on the observed images (batched as
+    ``score_pool`` batches them for one strategy, so each method's part is what it
+    would compute itself) and, when ``n_variants`` > 0, the group needs on the M =
+    ``n_variants`` variants.
     """
     from spl_al.data import SCENE_FIELDS, Dataset
 
