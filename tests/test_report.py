@@ -488,3 +488,20 @@ def test_report_modules_import_no_circle():
 
     circles = sorted(m for m in graph if m != "__init__" and m in reach(m))
     assert circles == []
+
+
+def test_a_budget_table_caption_carries_the_training_notes(tmp_path):
+    from spl_al.config import STEPS_BY_IMAGES_NOTE
+    from spl_al.experiment.report_steps import make_table
+
+    paths = []
+    for i, rec in enumerate(make_records()):
+        paths.append(tmp_path / f"m{i}.json")
+        paths[-1].write_text(json.dumps(rec))
+    experiments = {"budget": {"methods": list(VALUES), "seeds": [1, 2, 3], "rounds": 3}}
+    for notes, stem in (((), "plain"), ((STEPS_BY_IMAGES_NOTE,), "images")):
+        make_table(paths, "budget", experiments, {}, tmp_path / stem, notes=notes)
+    assert "steps_by" not in (tmp_path / "plain.md").read_text()
+    md, tex = (tmp_path / "images.md").read_text(), (tmp_path / "images.tex").read_text()
+    assert "seeds (train.fit.steps_by: images, so training steps scale with images" in md
+    assert "steps\\_by: images" in tex.split("\\caption{")[1]
