@@ -87,3 +87,54 @@ def test_decisive_config_extends_the_default_run_seeds_of_real_cls_only():
         mine = {k: v for k, v in ours["experiments"][experiment].items() if k != "seeds"}
         assert mine == {k: v for k, v in theirs["experiments"][experiment].items() if k != "seeds"}
     assert decisive["methods"] == default["methods"]
+
+
+def _round_steps(config: dict, dataset: str, steps_by: str | None = None) -> dict:
+    """(method, round) -> optimiser steps of that round's training, as the pipeline
+    trains it (groups labeled at the round, the method's variants per group)."""
+    from spl_al.bench.projection import method_variants
+    from spl_al.experiment.plan import dataset_runs
+
+    entry = config["datasets"][dataset]
+    fit = {k: v for k, v in entry["train"]["fit"].items() if v is not None}
+    cfg = TrainConfig.from_dict(fit if steps_by is None else {**fit, "steps_by": steps_by})
+    steps = {}
+    for (method, _seed), rounds in dataset_runs(config, dataset).items():
+        m = method_variants(config, dataset, method)
+        for r in range(rounds):
+            groups = entry["al"]["initial"] + r * entry["al"]["batch"]
+            steps[method, r] = cfg.total_steps(groups * (1 + m), groups)
+    return steps
+
+
+@pytest.mark.parametrize("name", [None, "ci.yaml", "paper.yaml", "harder.yaml", "decisive.yaml"])
+def test_every_shipped_config_trains_every_method_the_same_steps(name):
+    config = _merged(*([name] if name else []))
+    for dataset in config["datasets"]:
+        assert config["datasets"][dataset]["train"]["fit"].get("steps_by", "groups") == "groups"
+        per_round: dict[int, set] = {}
+        for (_method, r), steps in _round_steps(config, dataset).items():
+            per_round.setdefault(r, set()).add(steps)
+        assert all(len(s) == 1 for s in per_round.values()), (dataset, per_round)
+
+
+def test_the_default_run_takes_the_steps_it_took_before_the_policy():
+    """The default config's floors (min_steps, steps_per_group) already set every
+    round's length: its results (docs/results.md) are the same under either policy."""
+    config = _merged()
+    for dataset in config["datasets"]:
+        assert _round_steps(config, dataset, "groups") == _round_steps(config, dataset, "images")
+
+
+def test_training_notes_name_steps_that_scale_with_images():
+    from spl_al.config import training_notes
+
+    config = _merged()
+    assert training_notes(config, "street_seg") == []
+    config["datasets"]["street_seg"]["train"]["fit"]["steps_by"] = "images"
+    (note,) = training_notes(config, "street_seg")
+    assert "steps_by: images" in note and "steps" in note
+    check_config(config, Path(__file__).resolve().parents[1] / "config" / "schema.yaml")
+    config["datasets"]["street_seg"]["train"]["fit"]["steps_by"] = "scans"
+    with pytest.raises(ValueError, match=r"'datasets.street_seg.train.fit.steps_by'"):
+        check_config(config, Path(__file__).resolve().parents[1] / "config" / "schema.yaml")

@@ -180,6 +180,27 @@ def test_labeled_sets_grow_by_the_batch_without_repeats(ci_results):
             assert set(initial) <= set(after)
 
 
+def test_every_method_trains_the_same_steps_at_every_dataset_seed_and_round(ci_results):
+    """The training-step policy (steps_by: groups): at equal labels every method takes
+    the same optimiser steps, whether it trains on variants or not; every round's
+    record, round 0's shared fit included, says how many it took."""
+    from spl_al.report import load_records
+
+    paths = sorted(ci_results.glob("*/*/seed*/round*/metrics.json"))
+    df = load_records(paths)
+    assert set(df["dataset"]) == {"real_cls", "street_seg", "street_pc"}
+    assert df["train_steps"].notna().all() and df["images_seen"].notna().all()
+    assert (df["train_steps"] >= 1).all() and (df["images_seen"] >= df["train_steps"]).all()
+    per_cell = df.groupby(["dataset", "seed", "round"])["train_steps"].nunique()
+    assert (per_cell == 1).all(), per_cell[per_cell > 1]
+    # the cells where images would have added steps (street_seg and street_pc, round 1)
+    # hold methods with and without variants: M = 2 gives 3x the images at equal steps
+    seg = df[(df["dataset"] == "street_seg") & (df["round"] == 1)].set_index(["method", "seed"])
+    assert (seg.loc["duis", "images_seen"] > seg.loc["random", "images_seen"]).all()
+    fits = [json.loads(p.read_text()) for p in ci_results.glob("*/initial/seed*/m*/fit.json")]
+    assert fits and all(f["train_steps"] >= 1 and f["images_seen"] >= 1 for f in fits)
+
+
 def test_killed_run_resumes_to_identical_tables_and_labeled_sets(ci_results, tmp_path):
     """A second run of the same config (street_seg), SIGKILLed mid-way and restarted,
     ends with the same labeled sets and tables as the uninterrupted run."""

@@ -73,6 +73,8 @@ def make_records(values=VALUES, dataset="synth_cls", standin=False, n_labeled=N_
                         "per_level": per_level,
                         "synthetic_standin": standin,
                         "train_seconds": 1.5,
+                        "train_steps": 10 * (r + 1),
+                        "images_seen": 320 * (r + 1),
                     }
                 )
     return records
@@ -105,6 +107,15 @@ def test_load_records_reads_files_and_flattens_levels(tmp_path):
     assert math.isnan(row["level_low"])
     assert row["ratio"] == 86 / N_TOTAL  # recomputed exactly, not the rounded 0.086
     assert row["source"].endswith(".json")
+    assert (row["train_steps"], row["images_seen"]) == (30, 960)
+
+
+def test_records_without_steps_get_nan_steps():
+    records = make_records()
+    for record in records:
+        del record["train_steps"], record["images_seen"]
+    df = records_frame(records)
+    assert df["train_steps"].isna().all() and df["images_seen"].isna().all()
 
 
 @pytest.mark.parametrize(
@@ -117,6 +128,9 @@ def test_load_records_reads_files_and_flattens_levels(tmp_path):
         (lambda r: r.update(synthetic_standin="no"), "synthetic_standin"),
         (lambda r: r.update(per_level={"extreme": 0.5}), "per_level"),
         (lambda r: r.update(n_labeled=2000), "n_labeled"),
+        (lambda r: r.update(train_steps=0), "train_steps"),
+        (lambda r: r.update(train_steps=True), "train_steps"),
+        (lambda r: r.update(images_seen=2.5), "images_seen"),
     ],
 )
 def test_malformed_record_names_file_and_key(tmp_path, mutate, key):
@@ -476,3 +490,20 @@ def test_report_modules_import_no_circle():
 
     circles = sorted(m for m in graph if m != "__init__" and m in reach(m))
     assert circles == []
+
+
+def test_a_budget_table_caption_carries_the_training_notes(tmp_path):
+    from spl_al.config import STEPS_BY_IMAGES_NOTE
+    from spl_al.experiment.report_steps import make_table
+
+    paths = []
+    for i, rec in enumerate(make_records()):
+        paths.append(tmp_path / f"m{i}.json")
+        paths[-1].write_text(json.dumps(rec))
+    experiments = {"budget": {"methods": list(VALUES), "seeds": [1, 2, 3], "rounds": 3}}
+    for notes, stem in (((), "plain"), ((STEPS_BY_IMAGES_NOTE,), "images")):
+        make_table(paths, "budget", experiments, {}, tmp_path / stem, notes=notes)
+    assert "steps_by" not in (tmp_path / "plain.md").read_text()
+    md, tex = (tmp_path / "images.md").read_text(), (tmp_path / "images.tex").read_text()
+    assert "seeds (train.fit.steps_by: images, so training steps scale with images" in md
+    assert "steps\\_by: images" in tex.split("\\caption{")[1]

@@ -92,6 +92,9 @@ def test_shared_round0_equals_training_and_scoring_in_place(tmp_path, method, m)
         k: v for k, v in own.items() if k not in timing
     }
     assert shared["train_images"] == 6 * (m + 1)
+    # epochs count the 6 labeled groups (batch 8: one step each), variants or not
+    assert (shared["train_steps"], shared["images_seen"]) == (2, 2 * min(8, 6 * (m + 1)))
+    assert (fit["train_steps"], fit["images_seen"]) == (2, 2 * min(8, 6 * (m + 1)))
     weights = [torch.load(tmp_path / f, weights_only=True) for f in ("init.pt", "shared.pt")]
     assert all(torch.equal(weights[0][k], weights[1][k]) for k in weights[0])
     a, b = StrategyInputs.load(tmp_path / "own.npz"), StrategyInputs.load(tmp_path / "shared.npz")

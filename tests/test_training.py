@@ -204,6 +204,7 @@ def test_train_config_from_dict_and_steps():
         {"label_smoothing": 1.0},
         {"crop_width": 0},
         {"steps_per_group": -1},
+        {"steps_by": "scans"},
         {"balance": -0.5},
         {"crop_width": 1.5},
     ):
@@ -220,6 +221,41 @@ def test_train_rejects_bad_targets():
         train(model, depth[:, 0], valid[:, 0], y[:3], FAST, 0, "cpu", io.StringIO())
     with pytest.raises(ValueError, match="groups must lie in"):
         train(model, depth[:, 0], valid[:, 0], y, FAST, 0, "cpu", io.StringIO(), groups=5)
+
+
+def test_epochs_count_groups_by_default_and_images_when_asked():
+    # 40 labeled groups of 5 images (observed + 4 variants) against 40 observed images
+    groups = TrainConfig(epochs=10, batch_size=8)
+    assert groups.steps_by == "groups"
+    assert groups.total_steps(200, n_groups=40) == groups.total_steps(40, n_groups=40) == 50
+    assert groups.total_steps(200) == 250  # no groups given: each image is its own
+    assert groups.images_seen(200, n_groups=40) == 50 * 8
+    images = TrainConfig(epochs=10, batch_size=8, steps_by="images")
+    assert images.total_steps(200, n_groups=40) == 250  # variants add steps
+    assert images.total_steps(40, n_groups=40) == 50
+    # the floors and explicit steps hold under both policies
+    for by in ("groups", "images"):
+        floor = TrainConfig(epochs=10, batch_size=8, min_steps=300, steps_by=by)
+        assert floor.total_steps(200, n_groups=40) == floor.total_steps(40, n_groups=40) == 300
+        per_group = TrainConfig(epochs=10, batch_size=8, steps_per_group=20, steps_by=by)
+        assert per_group.total_steps(200, n_groups=40) == 800
+        assert TrainConfig(steps=7, steps_by=by).total_steps(200, n_groups=40) == 7
+    # fewer images than a batch: one step of all of them per epoch
+    small = TrainConfig(epochs=3, batch_size=32)
+    assert small.total_steps(15, n_groups=3) == 3 and small.images_seen(15, n_groups=3) == 45
+    with pytest.raises(ValueError, match="steps_by"):
+        TrainConfig(steps_by="scans")
+
+
+def test_train_takes_the_steps_of_its_policy():
+    depth, valid, y = shapes_groups(12, n_groups=1)  # 12 images from 3 labeled groups
+    for by, steps in (("groups", 2), ("images", 12)):
+        cfg = TrainConfig(epochs=2, batch_size=2, steps_by=by, log_every=0)
+        assert cfg.total_steps(12, 3) == steps
+        log = io.StringIO()
+        train(build_model("classification", 3, width=2), depth[:, 0], valid[:, 0], y, cfg, 0,
+              "cpu", log, groups=3)  # fmt: skip
+        assert f", {steps} steps (" in log.getvalue()
 
 
 def test_steps_per_group_counts_the_labeled_groups_not_the_images():

@@ -84,6 +84,20 @@ def train_setup(config: dict, dataset: str) -> dict:
     return {**train, "fit": fit}
 
 
+STEPS_BY_IMAGES_NOTE = (
+    "train.fit.steps_by: images, so training steps scale with images and methods that "
+    "train on variants take more optimiser steps than those that do not"
+)
+
+
+def training_notes(config: dict, dataset: str) -> list[str]:
+    """Notes a dataset's tables carry about how its methods were trained: one when
+    ``train.fit.steps_by`` is "images" (steps are then not equal across methods at a
+    budget), none under the default policy (epochs count labeled groups)."""
+    fit = config["datasets"][dataset].get("train", {}).get("fit") or {}
+    return [STEPS_BY_IMAGES_NOTE] if fit.get("steps_by") == "images" else []
+
+
 def write_config(config: dict, path) -> Path:
     """Write the effective configuration of a run as YAML (atomically, keys sorted)."""
     import yaml

@@ -5,7 +5,12 @@ from pathlib import Path
 from snakemake.logging import logger
 from snakemake.settings.types import DeploymentMethod
 
-from spl_al.config import dataset_precision, real_captures_dir, train_setup
+from spl_al.config import (
+    dataset_precision,
+    real_captures_dir,
+    train_setup,
+    training_notes,
+)
 from spl_al.data.captures import CaptureOptions, capture_files, shard_count, shard_of
 from spl_al.data.external import folder_has_levels
 from spl_al.labeling import lists_training_rows
@@ -268,7 +273,10 @@ NO_LEVELS_NOTE = (
 
 
 def dataset_notes(dataset):
-    return [] if has_levels(dataset) else [NO_LEVELS_NOTE]
+    """Notes of a dataset's summary: missing MSPPP levels, training steps that scale
+    with images (its tables carry the latter too)."""
+    notes = [] if has_levels(dataset) else [NO_LEVELS_NOTE]
+    return notes + training_notes(config, dataset)
 
 
 for _dataset in DATASETS:

@@ -41,6 +41,7 @@ rule table:
         sweeps=lambda w: sweep_table_spec(
             config, config["datasets"][w.dataset]["variants"]["n"]
         ),
+        notes=lambda w: training_notes(config, w.dataset),
     script:
         "../scripts/table.py"
 

@@ -11,6 +11,7 @@ run_job(
         experiments=snakemake.params.experiments,
         sweeps=snakemake.params.sweeps,
         out_stem=str(Path(snakemake.output.csv).with_suffix("")),
+        notes=snakemake.params.notes,
     ),
     preload=("spl_al.report",),
 )

@@ -6,8 +6,11 @@ from __future__ import annotations
 from spl_al.atomic import atomic_write, write_json
 
 
-def make_table(metrics_paths, kind: str, experiments: dict, sweeps: dict, out_stem) -> None:
-    """One of the paper's tables (budget, levels, ablation, sensitivity) as CSV + MD + TeX."""
+def make_table(
+    metrics_paths, kind: str, experiments: dict, sweeps: dict, out_stem, notes=()
+) -> None:
+    """One of the paper's tables (budget, levels, ablation, sensitivity) as CSV + MD + TeX;
+    ``notes`` (e.g. ``spl_al.config.training_notes``) go into its caption."""
     from spl_al import report
 
     df = report.load_records(metrics_paths)
@@ -19,6 +22,8 @@ def make_table(metrics_paths, kind: str, experiments: dict, sweeps: dict, out_st
         "ablation": f"ablation: {metric} (%) at round {at_round}",
         "sensitivity": f"parameter sensitivity of DUIS: {metric} (%)",
     }[kind]
+    if notes:
+        caption += f" ({'; '.join(str(n) for n in notes)})"
     if kind == "budget":
         frame = report.budget_table(df, methods=experiments["budget"]["methods"])
     elif kind == "levels":

@@ -110,6 +110,16 @@ class Fit:
     train_images: int
     train_seconds: float
     precision: str
+    train_steps: int | None = None  # optimiser steps (None: a fit record that predates them)
+    images_seen: int | None = None  # images drawn over those steps
+
+    def steps(self) -> dict:
+        """``train_steps`` and ``images_seen`` for a record (none when unknown)."""
+        return {
+            k: int(v)
+            for k, v in (("train_steps", self.train_steps), ("images_seen", self.images_seen))
+            if v is not None
+        }
 
 
 def fit_and_evaluate(
@@ -153,7 +163,29 @@ def fit_and_evaluate(
         precision=cfg.precision,
     )
     used = resolve_precision(cfg.precision, resolve_device(compute.device), model)
-    return Fit(model, metrics, int(images.shape[0]), train_seconds, used)
+    n, groups = int(images.shape[0]), len(pool_idx)
+    return Fit(
+        model,
+        metrics,
+        n,
+        train_seconds,
+        used,
+        train_steps=cfg.total_steps(n, groups),
+        images_seen=cfg.images_seen(n, groups),
+    )
+
+
+def _fit_of_record(model, record: dict) -> Fit:
+    """A ``Fit`` of ``train_initial``'s record (``model``: its weights loaded, or None)."""
+    return Fit(
+        model,
+        record["metrics"],
+        record["train_images"],
+        record["train_seconds"],
+        record["precision"],
+        train_steps=record.get("train_steps"),
+        images_seen=record.get("images_seen"),
+    )
 
 
 def _precision(setup: dict) -> str:
@@ -193,11 +225,12 @@ def train_initial(
     seed, so all methods that use ``n_variants`` variants per group (0: observed
     images only) would train the same model; ``train_round`` reuses this one instead
     (``initial``). Writes the weights and ``out.record`` (test metrics, training
-    images and seconds, precision, what a metrics record needs of the dataset). With
-    ``out.scores`` it also scores the unlabeled pool for every strategy at once:
-    every need on the observed images (batched as ``score_pool`` batches them for one
-    strategy, so each method's part is what it would compute itself) and, when
-    ``n_variants`` > 0, the group needs on the M = ``n_variants`` variants.
+    images, optimiser steps, images seen and seconds, precision, what a metrics record
+    needs of the dataset). With ``out.scores`` it also scores the unlabeled pool for
+    every strategy at once: every need on the observed images (batched as
+    ``score_pool`` batches them for one strategy, so each method's part is what it
+    would compute itself) and, when ``n_variants`` > 0, the group needs on the M =
+    ``n_variants`` variants.
     """
     from spl_al.data import SCENE_FIELDS, Dataset
 
@@ -211,6 +244,7 @@ def train_initial(
     record = {
         "metrics": fit.metrics,
         "train_images": fit.train_images,
+        **fit.steps(),
         "train_seconds": round(fit.train_seconds, 3),
         "precision": fit.precision,
         "dataset": dataset_facts(dataset),
@@ -306,7 +340,7 @@ def _shared_round0(initial: ModelFiles, method: MethodSpec, pool_idx, out: Model
 
 def _metrics_record(facts, setup, which: RoundId, n_labeled, metrics, extra) -> dict:
     """The per-round record ``spl_al.report`` aggregates (``facts``: ``dataset_facts``;
-    ``extra``: timing and precision)."""
+    ``extra``: training images, steps and images seen, timing and precision)."""
     from spl_al.data.dataset import LEVELS
 
     key = "accuracy" if facts["task"] == "classification" else "miou"
@@ -355,7 +389,8 @@ def train_round(
     TrainConfig) and ``method`` (MethodSpec fields). A method with ``use_variants``
     trains on the observed image and the method's M variants of each labeled group,
     all with the group's label or mask. Writes the weights, the metrics record that
-    ``spl_al.report`` aggregates (``out.record``) and the scores.
+    ``spl_al.report`` aggregates (``out.record``: with the round's optimiser steps,
+    ``train_steps``, and the images they drew, ``images_seen``) and the scores.
 
     The training labels are the dataset's (the simulated oracle), or with
     ``labels_path`` the ones a person gave (``spl_al.labeling.save_labels``).
@@ -374,6 +409,7 @@ def train_round(
         if fit is not None:
             extra = {
                 "train_images": fit["train_images"],
+                **_fit_of_record(None, fit).steps(),
                 "train_seconds": fit["train_seconds"],
                 "score_seconds": 0.0,
                 "seconds": round(time.perf_counter() - started, 3),
@@ -402,6 +438,7 @@ def train_round(
         scored = {"unlabeled": int(unlabeled.size), "seconds": 0.0}
     extra = {
         "train_images": fit.train_images,
+        **fit.steps(),
         "train_seconds": round(fit.train_seconds, 3),
         "score_seconds": scored["seconds"],
         "seconds": round(time.perf_counter() - started, 3),
@@ -420,14 +457,7 @@ def _round_model(dataset, pool_idx, setup, method, which, compute, log, labels_p
     if initial is not None:
         record = read_json(initial.record)
         _check_fit(record, initial.record, pool_idx.size, m, which.method)
-        model = load_model(dataset, setup["train"]["model"], initial.model)
-        return Fit(
-            model,
-            record["metrics"],
-            record["train_images"],
-            record["train_seconds"],
-            record["precision"],
-        )
+        return _fit_of_record(load_model(dataset, setup["train"]["model"], initial.model), record)
     if labels_path is None:
         given = dataset.labels[dataset.train_idx[pool_idx]]
     else:

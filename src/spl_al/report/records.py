@@ -6,12 +6,18 @@ One record is what one round of one run (dataset x method x seed) writes, a JSON
      "n_labeled": 200, "n_pool": 770, "n_total": 1100, "ratio": 0.1818,
      "metric": "accuracy", "value": 0.873,
      "per_level": {"high": 0.9, "medium": 0.88, "low": 0.84},
-     "synthetic_standin": false, "train_seconds": 12.3}
+     "synthetic_standin": false, "train_seconds": 12.3,
+     "train_steps": 300, "images_seen": 9600}
 
 ``ratio`` is the labeling ratio n_labeled / n_total; ``value`` and the per-level values
-are test metrics in [0, 1]; ``per_level`` may be missing levels or be empty. The
-records frame has one row per record with ``per_level`` flattened into the columns
-``level_high``, ``level_medium``, ``level_low`` (NaN where a level is missing).
+are test metrics in [0, 1]; ``per_level`` may be missing levels or be empty.
+``train_steps`` is the number of optimiser steps of the round's training and
+``images_seen`` the images those steps drew (steps x batch size); under the default
+policy (``TrainConfig.steps_by`` "groups") ``train_steps`` is the same for every method
+at a (dataset, seed, round), variants or not. The records frame has one row per record
+with ``per_level`` flattened into the columns ``level_high``, ``level_medium``,
+``level_low`` (NaN where a level is missing; so are ``train_seconds``, ``train_steps``
+and ``images_seen`` where a record has none).
 """
 
 from __future__ import annotations
@@ -44,6 +50,8 @@ FRAME_COLUMNS = (
     *LEVEL_COLUMNS,
     "synthetic_standin",
     "train_seconds",
+    "train_steps",
+    "images_seen",
     "source",
 )
 
@@ -70,7 +78,8 @@ def validate_record(record, where: str = "record") -> dict:
     Raises ValueError with one sentence naming ``where`` and the missing or bad key.
     Required: dataset, method, metric (non-empty strings), seed, round, n_labeled,
     n_total (integers), value (in [0, 1]), synthetic_standin (bool). Optional, checked
-    when present: n_pool, ratio (must equal n_labeled / n_total), per_level, train_seconds.
+    when present: n_pool, ratio (must equal n_labeled / n_total), per_level, train_seconds,
+    train_steps and images_seen (integers >= 1).
     """
     if not isinstance(record, Mapping):
         raise ValueError(f"{where}: expected a JSON object, got {type(record).__name__}.")
@@ -106,6 +115,10 @@ def validate_record(record, where: str = "record") -> dict:
     train_seconds = record.get("train_seconds")
     if train_seconds is not None and not (_is_real(train_seconds) and train_seconds >= 0):
         raise bad("train_seconds", "a number of seconds >= 0")
+    counts = {key: record.get(key) for key in ("train_steps", "images_seen")}
+    for key, count in counts.items():
+        if count is not None and not (_is_int(count) and count >= 1):
+            raise bad(key, "an integer >= 1")
 
     per_level = record.get("per_level") or {}
     if not isinstance(per_level, Mapping):
@@ -139,6 +152,7 @@ def validate_record(record, where: str = "record") -> dict:
         },
         "synthetic_standin": record["synthetic_standin"],
         "train_seconds": float(train_seconds) if train_seconds is not None else math.nan,
+        **{key: float(v) if v is not None else math.nan for key, v in counts.items()},
         "source": where,
     }
 

@@ -15,14 +15,25 @@ from spl_al.training.precision import PRECISIONS
 # first cuBLAS handle exists, hence at import (a user's own value is kept).
 os.environ.setdefault("CUBLAS_WORKSPACE_CONFIG", ":4096:8")
 
+STEPS_BY = ("groups", "images")
+"""What ``TrainConfig.epochs`` counts passes over: the labeled groups, or every image."""
+
 
 @dataclass(frozen=True)
 class TrainConfig:
     """How to train one model; independent of the seed (passed to ``train``).
 
     Attributes:
-        epochs: passes over the training images (used when ``steps`` is None).
+        epochs: passes over the training set (used when ``steps`` is None): over the
+            labeled groups or over every image, as ``steps_by`` says.
         steps: total optimiser steps; when set it overrides ``epochs``.
+        steps_by: what an epoch's steps count: "groups" (the default) gives an epoch
+            n_groups // batch_size steps, so a method that trains on each labeled
+            group's variants takes the steps of one that trains on the observed
+            images alone (it sees each image less often): methods compared at a
+            budget differ in what they acquire, not in how long they train. "images"
+            gives an epoch n_images // batch_size steps: variants add steps. Both are
+            the same when each image is its own group.
         min_steps: at least this many steps (more epochs when the labeled set is
             small, so early rounds are not under-trained); 0 disables.
         steps_per_group: at least this many steps per labeled group (``train``'s
@@ -72,6 +83,7 @@ class TrainConfig:
 
     epochs: int | None = 30
     steps: int | None = None
+    steps_by: str = "groups"
     min_steps: int = 0
     steps_per_group: int = 0
     batch_size: int = 128
@@ -138,6 +150,10 @@ class TrainConfig:
             value = getattr(self, name)
             if isinstance(value, bool) or not isinstance(value, int | float) or not value >= 0:
                 raise ValueError(f"TrainConfig.{name} must be a number >= 0, got {value!r}.")
+        if self.steps_by not in STEPS_BY:
+            raise ValueError(
+                f"TrainConfig.steps_by must be one of {list(STEPS_BY)}, got {self.steps_by!r}."
+            )
         if self.precision not in PRECISIONS:
             raise ValueError(
                 f"TrainConfig.precision must be one of {list(PRECISIONS)}, got {self.precision!r}."
@@ -172,12 +188,23 @@ class TrainConfig:
     def total_steps(self, n_images: int, n_groups: int | None = None) -> int:
         """Optimiser steps for ``n_images`` training images from ``n_groups`` labeled
         groups (None: one group per image):
-        max(steps or epochs * (n_images // batch_size), min_steps,
-        steps_per_group * n_groups)."""
-        per_epoch = max(1, n_images // self.batch_size)
-        steps = self.steps if self.steps is not None else self.epochs * per_epoch
+        max(steps or epochs * (n // batch_size), min_steps, steps_per_group * n_groups),
+        n = n_groups with ``steps_by`` "groups", n_images with "images" (an epoch
+        has at least one step)."""
         groups = n_images if n_groups is None else n_groups
+        n = groups if self.steps_by == "groups" else n_images
+        per_epoch = max(1, n // self.batch_size)
+        steps = self.steps if self.steps is not None else self.epochs * per_epoch
         return max(steps, self.min_steps, self.steps_per_group * groups)
+
+    def batch_images(self, n_images: int) -> int:
+        """Images per step: ``batch_size``, or all ``n_images`` when there are fewer."""
+        return min(self.batch_size, n_images)
+
+    def images_seen(self, n_images: int, n_groups: int | None = None) -> int:
+        """Images drawn over the whole training: ``total_steps`` x ``batch_images``
+        (exact: every batch is full, an epoch drops its ragged last batch)."""
+        return self.total_steps(n_images, n_groups) * self.batch_images(n_images)
 
 
 def resolve_device(name: str | torch.device | None = None) -> torch.device:

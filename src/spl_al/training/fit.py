@@ -284,7 +284,9 @@ def train(
         device: "auto"/None, "cpu", "cuda" (``resolve_device``).
         log: where progress lines go: None = stderr, a path (appended) or a stream.
         groups: how many labeled groups the images come from (for
-            ``cfg.steps_per_group``; None: each image is its own group).
+            ``cfg.steps_per_group`` and, with ``cfg.steps_by`` "groups", the steps of
+            an epoch; None: each image is its own group). The number of steps is
+            ``cfg.total_steps(n, groups)``, each of ``cfg.batch_images(n)`` images.
     """
     cfg = cfg if isinstance(cfg, TrainConfig) else TrainConfig.from_dict(cfg)
     depth_m = np.asarray(depth_m)
@@ -399,8 +401,10 @@ class _Schedule:
 
     @classmethod
     def of(cls, cfg: TrainConfig, n: int, groups) -> _Schedule:
-        batch = min(cfg.batch_size, n)
-        per_epoch = max(1, n // batch)  # drop the ragged last batch; the next permutation covers it
+        batch = cfg.batch_images(n)
+        # Epochs here are passes over the images: drop the ragged last batch, the next
+        # permutation covers it (so every batch is full: TrainConfig.images_seen).
+        per_epoch = max(1, n // batch)
         total = cfg.total_steps(n, groups)
         return cls(batch, per_epoch, total, math.ceil(total / per_epoch), cfg.lr, cfg.cosine)
 
