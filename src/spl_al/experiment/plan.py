@@ -4,6 +4,10 @@ A *method* is a named entry: an acquisition strategy, its parameters, and whethe
 training uses the synthetic variants (the paper's "Syn"). One name is one curve or
 one table row. Sensitivity sweeps generate further entries from a base method with
 one parameter changed, e.g. ``duis_ncand40``, ``duis_alpha0.25``, ``duis_m2``.
+
+A dataset's ``al`` entry sets the labeled counts: ``initial`` groups at round 0, and
+``batch`` more per query, one integer for every query or a list with one per query
+(``batch[r]`` is the query that makes round r + 1): ``labeled_at`` and ``batch_of``.
 """
 
 from __future__ import annotations
@@ -156,8 +160,50 @@ def dataset_runs(config: dict, dataset: str) -> dict[tuple[str, int], int]:
     return runs
 
 
+# ---------------------------------------------------------------- labeled counts
+
+
+def batch_of(al: dict, round_: int, where: str = "al.batch", past_end: bool = False) -> int:
+    """Groups the query that makes round ``round_`` (>= 1) adds: ``al["batch"]``, or its
+    entry ``round_ - 1`` when it is a list. ``past_end``: a query past the list's end
+    (a human oracle's rounds go on as long as labels come) takes its last entry
+    instead of being refused. ``where`` names the key in the error."""
+    batch = al["batch"]
+    if int(round_) < 1:
+        raise ValueError(f"round {round_!r} is made by no query (round 0 is the initial set).")
+    if not isinstance(batch, list | tuple):
+        return int(batch)
+    if int(round_) > len(batch):
+        if past_end and batch:
+            return int(batch[-1])
+        raise ValueError(
+            f"config key {where!r} lists {len(batch)} per-round batches, so no query makes "
+            f"round {round_}; give one batch per query (rounds - 1 of them)."
+        )
+    return int(batch[int(round_) - 1])
+
+
+def labeled_at(al: dict, round_: int) -> int:
+    """Groups labeled in round ``round_``: ``initial`` plus every batch up to it."""
+    return int(al["initial"]) + sum(batch_of(al, r) for r in range(1, int(round_) + 1))
+
+
+def _check_batches(dataset: str, entry: dict, rounds: int) -> None:
+    """A per-round batch list needs one batch per query of the longest run."""
+    batch = entry["al"]["batch"]
+    if not isinstance(batch, list | tuple) or rounds < 1:
+        return
+    if len(batch) != rounds - 1:
+        raise ValueError(
+            f"config key 'datasets.{dataset}.al.batch' lists {len(batch)} per-round batches "
+            f"but the dataset's experiments make {rounds - 1} queries ({rounds} rounds); "
+            f"give {rounds - 1} batches or set the rounds to {len(batch) + 1}."
+        )
+
+
 def check_plan(config: dict) -> None:
-    """Every method a dataset's experiments name must exist; rounds must be >= 1."""
+    """Every method a dataset's experiments name must exist; rounds must be >= 1; a
+    per-round batch list has one batch per query."""
     specs = method_specs(config)
     for dataset, entry in config["datasets"].items():
         if entry.get("source") == "unlabeled" and entry.get("oracle") != "human":
@@ -175,3 +221,5 @@ def check_plan(config: dict) -> None:
                 raise ValueError(
                     f"config key 'datasets.{dataset}.experiments': rounds must be >= 1."
                 )
+        runs = dataset_runs(config, dataset)
+        _check_batches(dataset, entry, max(runs.values(), default=0))
