@@ -1,15 +1,29 @@
-"""Budget points of a config: per-round batches (``al.batch`` as a list)."""
+"""Budget points and candidate pools of a config: per-round batches (``al.batch`` as a
+list), and N_cand at most half the unlabeled pool at every query, checked when the
+config parses and again at the query."""
 
 from __future__ import annotations
 
 import copy
+import json
 from pathlib import Path
 
+import numpy as np
 import pytest
 import yaml
 
 from spl_al.config import check_config
-from spl_al.experiment.plan import batch_of, check_plan, labeled_at
+from spl_al.experiment.plan import (
+    batch_of,
+    check_plan,
+    dataset_method,
+    dataset_runs,
+    labeled_at,
+    train_pool_size,
+)
+from spl_al.experiment.round_steps import query_round, write_initial_set
+from spl_al.strategies import StrategyInputs
+from spl_al.strategies.duis import CandidatePoolTooLarge
 
 ROOT = Path(__file__).resolve().parents[1]
 SCHEMA = ROOT / "config" / "schema.yaml"
@@ -53,3 +67,87 @@ def test_batch_of_a_list_and_past_its_end():
     assert batch_of(al, 5, past_end=True) == 9  # a human oracle's extra rounds
     with pytest.raises(ValueError, match="round 0"):
         batch_of(al, 0)
+
+
+def test_n_cand_is_at_most_half_the_pool_at_every_query_of_the_default_run(default):
+    check_plan(default)
+    for dataset, entry in default["datasets"].items():
+        n_train = train_pool_size(entry)
+        for (method, _seed), rounds in dataset_runs(default, dataset).items():
+            n_cand = dataset_method(default, dataset, method).params.get("n_cand")
+            if n_cand is None:
+                continue
+            for r in range(1, rounds):
+                assert n_cand <= (n_train - labeled_at(entry["al"], r - 1)) / 2, (dataset, method)
+    for dataset in ("street_seg", "street_pc"):
+        for method in ("duis", "syn_diversity"):
+            assert dataset_method(default, dataset, method).params["n_cand"] == 80
+
+
+def test_n_cand_above_half_a_pool_is_refused_when_the_config_parses(default):
+    config = copy.deepcopy(default)
+    # the old street setting: N_cand 160 of 206 unlabeled scans at the first query
+    config["datasets"]["street_seg"].pop("method_params")
+    with pytest.raises(ValueError) as err:
+        check_plan(config)
+    assert str(err.value) == (
+        "street_seg/duis: the query that makes round 1 draws a k-means candidate pool of "
+        "N_cand = 160 from 206 unlabeled groups (78%, more than half of them: no longer a "
+        "diverse subset); set datasets.street_seg.method_params.duis.n_cand <= 103."
+    )
+    config["datasets"]["street_seg"]["method_params"] = {"duis": {"n_cand": 103}}
+    check_plan(config)
+
+
+def test_a_swept_n_cand_above_half_names_the_sweep(default):
+    config = copy.deepcopy(default)
+    config["sweeps"]["n_cand"] = [40, 400]
+    with pytest.raises(ValueError, match=r"real_cls/duis_ncand400: .* set the 'sweeps.n_cand'"):
+        check_plan(config)
+
+
+def test_pool_sizes_are_left_to_the_query_where_the_data_fixes_them(default):
+    entry = {**default["datasets"]["real_cls"], "path": "/somewhere", "standin": False}
+    assert train_pool_size(entry) is None
+    assert train_pool_size(default["datasets"]["real_cls"]) == 770  # 11 x 70 stand-in
+
+
+def _scores(tmp_path, n_train=40, labeled=6):
+    rng = np.random.default_rng(0)
+    labeled_idx = np.arange(labeled)
+    unlabeled_idx = np.arange(labeled, n_train)
+    n = unlabeled_idx.size
+    StrategyInputs(
+        unlabeled_idx,
+        labeled_idx,
+        group_features=rng.normal(size=(n, 3)),
+        gamma=rng.uniform(size=n),
+        inconsistency=rng.uniform(size=n),
+    ).save(tmp_path / "scores.npz")
+    write_initial_set(labeled_idx, 1, tmp_path / "labeled.json")
+    return tmp_path / "scores.npz", tmp_path / "labeled.json"
+
+
+def test_the_query_records_n_cand_and_the_pool_it_drew_from(tmp_path):
+    scores, labeled = _scores(tmp_path)
+    method = {"strategy": "duis", "params": {"n_cand": 17}}
+    record = query_round(scores, labeled, method, 6, 1, 1, tmp_path / "q.json", "toy", "duis")
+    saved = json.loads((tmp_path / "q.json").read_text())
+    assert saved == record
+    assert (saved["n_cand"], saved["n_unlabeled"], saved["batch"]) == (17, 34, 6)
+    assert saved["cand_ratio"] == pytest.approx(0.5)
+    plain = query_round(scores, labeled, {"strategy": "random"}, 6, 1, 1, tmp_path / "m.json")
+    assert (plain["n_cand"], plain["n_unlabeled"], plain["cand_ratio"]) == (None, 34, None)
+
+
+def test_the_query_refuses_n_cand_above_half_naming_the_round(tmp_path):
+    scores, labeled = _scores(tmp_path)
+    method = {"strategy": "diversity", "params": {"n_cand": 18}}
+    with pytest.raises(CandidatePoolTooLarge) as err:
+        query_round(scores, labeled, method, 6, 2, 3, tmp_path / "q.json", "toy", "syn_div")
+    assert str(err.value) == (
+        "toy/syn_div seed 2: the query that makes round 3 draws a k-means candidate pool of "
+        "N_cand = 18 from 34 unlabeled groups (53%, more than half of them: no longer a "
+        "diverse subset); set datasets.toy.method_params.syn_div.n_cand <= 17."
+    )
+    assert not (tmp_path / "q.json").exists()
