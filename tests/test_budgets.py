@@ -1,6 +1,6 @@
 """Budget points and candidate pools of a config: per-round batches (``al.batch`` as a
-list), and N_cand at most half the unlabeled pool at every query, checked when the
-config parses and again at the query."""
+list), the street datasets' five budget points, and N_cand at most half the unlabeled
+pool at every query, checked when the config parses and again at the query."""
 
 from __future__ import annotations
 
@@ -34,39 +34,18 @@ def default():
     return yaml.safe_load((ROOT / "config" / "config.yaml").read_text())
 
 
-def test_a_batch_list_needs_one_batch_per_query(default):
-    config = copy.deepcopy(default)
-    entry = config["datasets"]["synth_cls"]  # 3 rounds: 2 queries
-    for batch, given in (([40], 1), ([40, 40, 40], 3)):
-        entry["al"]["batch"] = batch
-        with pytest.raises(ValueError) as err:
-            check_plan(config)
-        message = str(err.value)
-        assert message.startswith("config key 'datasets.synth_cls.al.batch' lists ")
-        assert f"lists {given} per-round batches but the dataset's experiments make 2" in message
-        assert message.count(". ") == 0 and message.endswith(".")
-    entry["al"]["batch"] = [40, 20]
-    check_plan(config)
-
-
-@pytest.mark.parametrize("batch", [[6, 0, 9, 9], []])
-def test_the_schema_takes_an_integer_or_a_list_of_positive_integers(default, batch):
-    config = copy.deepcopy(default)
-    check_config(config, SCHEMA)
-    config["datasets"]["street_pc"]["al"]["batch"] = batch
-    with pytest.raises(ValueError, match=r"'datasets\.street_pc\.al\.batch'.*not valid"):
-        check_config(config, SCHEMA)
-
-
-def test_batch_of_a_list_and_past_its_end():
-    al = {"initial": 6, "batch": [6, 6, 9, 9]}
-    assert [labeled_at(al, r) for r in range(5)] == [6, 12, 18, 27, 36]
-    assert batch_of({"initial": 4, "batch": 32}, 7) == 32
-    with pytest.raises(ValueError, match=r"'datasets\.x\.al\.batch' lists 4 .* round 5"):
-        batch_of(al, 5, "datasets.x.al.batch")
-    assert batch_of(al, 5, past_end=True) == 9  # a human oracle's extra rounds
-    with pytest.raises(ValueError, match="round 0"):
-        batch_of(al, 0)
+@pytest.mark.parametrize("dataset", ["street_seg", "street_pc"])
+def test_street_datasets_plan_the_papers_five_budget_points(default, dataset):
+    entry = default["datasets"][dataset]
+    assert train_pool_size(entry) == 210
+    rounds = set(dataset_runs(default, dataset).values())
+    assert rounds == {5}
+    counts = [labeled_at(entry["al"], r) for r in range(5)]
+    assert counts == [6, 12, 18, 27, 36]
+    assert [round(100 * n / 210, 1) for n in counts] == [2.9, 5.7, 8.6, 12.9, 17.1]
+    assert [batch_of(entry["al"], r) for r in range(1, 5)] == [6, 6, 9, 9]
+    # the per-level point is the paper's 12.9%
+    assert labeled_at(entry["al"], entry["experiments"]["levels"]["round"]) == 27
 
 
 def test_n_cand_is_at_most_half_the_pool_at_every_query_of_the_default_run(default):
@@ -84,6 +63,44 @@ def test_n_cand_is_at_most_half_the_pool_at_every_query_of_the_default_run(defau
             assert dataset_method(default, dataset, method).params["n_cand"] == 80
 
 
+def test_a_batch_list_needs_one_batch_per_query(default):
+    config = copy.deepcopy(default)
+    al = config["datasets"]["street_seg"]["al"]
+    for batch, queries in (([6, 6, 9], 3), ([6, 6, 9, 9, 9], 5)):
+        al["batch"] = batch
+        with pytest.raises(ValueError) as err:
+            check_plan(config)
+        message = str(err.value)
+        assert message.startswith("config key 'datasets.street_seg.al.batch' lists ")
+        assert f"lists {queries} per-round batches but the dataset's experiments make 4" in message
+        assert message.count(". ") == 0 and message.endswith(".")
+    # fewer rounds with a list that matches them is fine
+    al["batch"] = [6, 6]
+    config["datasets"]["street_seg"]["experiments"]["budget"]["rounds"] = 3
+    config["datasets"]["street_seg"]["experiments"]["levels"]["round"] = 2
+    check_plan(config)
+
+
+@pytest.mark.parametrize(("batch", "words"), [([6, 0, 9, 9], "not valid"), ([], "not valid")])
+def test_the_schema_takes_an_integer_or_a_list_of_positive_integers(default, batch, words):
+    config = copy.deepcopy(default)
+    check_config(config, SCHEMA)
+    config["datasets"]["street_pc"]["al"]["batch"] = batch
+    with pytest.raises(ValueError, match=rf"'datasets\.street_pc\.al\.batch'.*{words}"):
+        check_config(config, SCHEMA)
+
+
+def test_batch_of_a_list_and_past_its_end():
+    al = {"initial": 6, "batch": [6, 6, 9, 9]}
+    assert [labeled_at(al, r) for r in range(5)] == [6, 12, 18, 27, 36]
+    assert batch_of({"initial": 4, "batch": 32}, 7) == 32
+    with pytest.raises(ValueError, match=r"'datasets\.x\.al\.batch' lists 4 .* round 5"):
+        batch_of(al, 5, "datasets.x.al.batch")
+    assert batch_of(al, 5, past_end=True) == 9  # a human oracle's extra rounds
+    with pytest.raises(ValueError, match="round 0"):
+        batch_of(al, 0)
+
+
 def test_n_cand_above_half_a_pool_is_refused_when_the_config_parses(default):
     config = copy.deepcopy(default)
     # the old street setting: N_cand 160 of 206 unlabeled scans at the first query
@@ -92,10 +109,14 @@ def test_n_cand_above_half_a_pool_is_refused_when_the_config_parses(default):
         check_plan(config)
     assert str(err.value) == (
         "street_seg/duis: the query that makes round 1 draws a k-means candidate pool of "
-        "N_cand = 160 from 206 unlabeled groups (78%, more than half of them: no longer a "
-        "diverse subset); set datasets.street_seg.method_params.duis.n_cand <= 103."
+        "N_cand = 160 from 204 unlabeled groups (78%, more than half of them: no longer a "
+        "diverse subset); set datasets.street_seg.method_params.duis.n_cand <= 102."
     )
-    config["datasets"]["street_seg"]["method_params"] = {"duis": {"n_cand": 103}}
+    # 92 passes the first queries and fails only the last one (183 unlabeled scans)
+    config["datasets"]["street_seg"]["method_params"] = {"duis": {"n_cand": 92}}
+    with pytest.raises(ValueError, match=r"makes round 4 .* N_cand = 92 from 183 .* <= 91\."):
+        check_plan(config)
+    config["datasets"]["street_seg"]["method_params"] = {"duis": {"n_cand": 91}}
     check_plan(config)
 
 
