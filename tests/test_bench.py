@@ -37,7 +37,8 @@ def test_learnability_runs_a_dataset_file_with_an_overridden_recipe(tmp_path, ca
         learnability.main([*args, "fit.lr=-1"])
 
 
-def test_projection_counts_every_training_job_and_image(tmp_path):
+@pytest.mark.parametrize("batch", ["5", "[5]"])  # one batch, or a per-round list
+def test_projection_counts_every_training_job_and_image(tmp_path, batch):
     """Two methods x one seed x two rounds, 3 epochs: round 0 of each number of variants
     once (train_initial), each job epochs x (one batch of all its images)."""
     from spl_al.bench import projection
@@ -46,7 +47,7 @@ def test_projection_counts_every_training_job_and_image(tmp_path):
     override.write_text(
         "datasets:\n"
         "  real_cls:\n"
-        "    al: {initial: 10, batch: 5}\n"
+        f"    al: {{initial: 10, batch: {batch}}}\n"
         "    variants: {n: 4}\n"
         "    train: {fit: {epochs: 3, min_steps: 0, batch_size: 512}}\n"
         "    experiments:\n"

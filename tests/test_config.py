@@ -9,6 +9,7 @@ import yaml
 from snakemake.utils import update_config
 
 from spl_al.config import check_config, drop_removed, real_captures_dir
+from spl_al.experiment.plan import check_plan
 from spl_al.models import build_model
 from spl_al.training import TrainConfig
 
@@ -67,8 +68,12 @@ def _merged(*names: str) -> dict:
 
 @pytest.mark.parametrize("name", ["ci.yaml", "paper.yaml", "harder.yaml", "decisive.yaml"])
 def test_every_shipped_override_is_a_valid_config(name):
+    """The schema and the plan's cross-key checks (per-round batch lists, N_cand at most
+    half the unlabeled pool at every query) both pass."""
     root = Path(__file__).resolve().parents[1] / "config"
-    check_config(_merged(name), root / "schema.yaml")
+    config = _merged(name)
+    check_config(config, root / "schema.yaml")
+    check_plan(config)
 
 
 def test_decisive_config_extends_the_default_run_seeds_of_real_cls_only():

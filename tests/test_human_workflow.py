@@ -31,6 +31,7 @@ DATASET = """
     synthesis: {n_per_class: 5, image_shape: [32, 32], test_fraction: 0.3, seed: 0, workers: 1}
     variants: {n: 2, shards: 1, seed: 0}
     al: {initial: 6, batch: 4}
+    method_params: {duis: {n_cand: 8}}  # at most half the 27 unlabeled samples
     train: {model: {arch: smallcnn}, fit: {epochs: 1, batch_size: 16}}
     experiments:
       budget: {methods: [duis], seeds: [1], rounds: 2}

@@ -105,6 +105,13 @@ def test_every_table_has_its_rows_columns_and_ranges(ci_results):
         assert sorted(seg["method"].unique()) == ["duis", "random"]
         assert (seg["metric"] == "miou").all() and seg["mean"].between(0, 100).all()
         assert not seg["synthetic_standin"].any()
+        # the query records N_cand against the 10 unlabeled scans it drew from (14 - 4)
+        for seed in (1, 2):
+            query = json.loads(
+                (ci_results / dataset / f"duis/seed{seed}/round1/labeled.json").read_text()
+            )
+            assert (query["n_cand"], query["n_unlabeled"], query["batch"]) == (5, 10, 3)
+            assert query["cand_ratio"] == 0.5 and query["n_labeled"] == 7
 
     summary = json.loads((cls / "summary.json").read_text())
     assert sorted(summary["methods"]) == sorted(

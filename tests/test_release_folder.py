@@ -58,7 +58,10 @@ def test_subset_per_class_and_levels_file(release, tmp_path):
 
 def test_release_layout_runs_through_every_table(release, tmp_path):
     override = tmp_path / "release.yaml"
+    # 20 training files, 9 unlabeled after the 11 of round 0: N_cand at most 4
     override.write_text(
+        "methods:\n  duis: {params: {n_cand: 4}}\n  syn_diversity: {params: {n_cand: 4}}\n"
+        "sweeps: {n_cand: [2, 4]}\n"
         "datasets:\n  street_seg: null\n  street_pc: null\n"
         f"  real_cls: {{path: {release}, n_per_class: 3}}\n"
     )

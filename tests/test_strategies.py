@@ -15,7 +15,13 @@ from spl_al.strategies.badge import (
     pixel_gradient_embedding,
 )
 from spl_al.strategies.coreset import k_center_greedy
-from spl_al.strategies.duis import candidate_pool, margin_and_inconsistency, nearest_unique, uis
+from spl_al.strategies.duis import (
+    CandidatePoolTooLarge,
+    candidate_pool,
+    margin_and_inconsistency,
+    nearest_unique,
+    uis,
+)
 from spl_al.strategies.entropy import entropy_score
 from spl_al.strategies.kmeans import kmeans
 from spl_al.strategies.margin import margin_score
@@ -244,12 +250,11 @@ def test_candidate_pool_has_n_cand_unique_members():
 def test_duis_ranks_the_candidate_pool_by_uis():
     inputs = make_inputs(n_unl=25)
     ref = uis(inputs.gamma, inputs.inconsistency, 0.3, 1e-8)
-    picks = strategies.get("duis", n_cand=100, alpha=0.3).select(
-        inputs, 6, np.random.default_rng(0)
-    )
+    whole = {"n_cand": 100, "max_cand_fraction": None}  # the limit lifted: the whole pool
+    picks = strategies.get("duis", alpha=0.3, **whole).select(inputs, 6, np.random.default_rng(0))
     expected = inputs.unlabeled_idx[np.argsort(-ref, kind="stable")[:6]]
     assert picks.tolist() == expected.tolist()
-    div = strategies.get("diversity", n_cand=100).select(inputs, 6, np.random.default_rng(0))
+    div = strategies.get("diversity", **whole).select(inputs, 6, np.random.default_rng(0))
     assert div.tolist() == inputs.unlabeled_idx[np.argsort(inputs.gamma)[:6]].tolist()
 
 
@@ -261,6 +266,23 @@ def test_duis_picks_only_from_its_candidate_pool():
     assert set(picks.tolist()) <= set(inputs.unlabeled_idx[pool].tolist())
     # a budget above N_cand widens the pool to the budget instead of failing
     assert len(np.unique(duis.select(inputs, 30, np.random.default_rng(4)))) == 30
+
+
+@pytest.mark.parametrize("name", ["duis", "diversity"])
+def test_n_cand_above_half_the_unlabeled_pool_is_one_sentence(name):
+    inputs = make_inputs(n_unl=30)
+    assert len(strategies.get(name, n_cand=15).select(inputs, 4, np.random.default_rng(0))) == 4
+    with pytest.raises(CandidatePoolTooLarge) as err:
+        strategies.get(name, n_cand=16).select(inputs, 4, np.random.default_rng(0))
+    message = str(err.value)
+    assert isinstance(err.value, ValueError)
+    assert (err.value.n_cand, err.value.n_unlabeled) == (16, 30)
+    assert "N_cand = 16 from 30 unlabeled groups (53%" in message
+    assert message.endswith("set n_cand <= 15.") and message.count(". ") == 0
+    lifted = strategies.get(name, n_cand=16, max_cand_fraction=None)
+    assert len(lifted.select(inputs, 4, np.random.default_rng(0))) == 4
+    with pytest.raises(ValueError, match="max_cand_fraction"):
+        strategies.get(name, max_cand_fraction=0.0)
 
 
 # ---------------------------------------------------------------- one contract for all
@@ -297,7 +319,9 @@ def make_inputs(n_unl=30, n_lab=6, c=4, d=5, g=3, kind="random", dense=False, se
     return StrategyInputs(unlabeled_idx=np.sort(order[:n_unl]), labeled_idx=order[n_unl:], **parts)
 
 
-CASES = [(name, {}) for name in strategies.names()] + [
+# duis and diversity at their defaults (N_cand 500) only with the half-pool limit lifted
+WHOLE = {"duis": {"max_cand_fraction": None}, "diversity": {"max_cand_fraction": None}}
+CASES = [(name, WHOLE.get(name, {})) for name in strategies.names()] + [
     ("duis", {"n_cand": 5}),
     ("diversity", {"n_cand": 5}),
     ("duis", {"n_cand": 8, "alpha": 1.0}),

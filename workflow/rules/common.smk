@@ -17,6 +17,7 @@ from spl_al.labeling import lists_training_rows
 from spl_al.experiment.warm import Server
 from spl_al.experiment.plan import (
     budget_families,
+    batch_of,
     check_plan,
     dataset_method,
     dataset_runs,
@@ -245,6 +246,18 @@ def queried_after(wildcards):
         return True
     rounds = runs(wildcards.dataset).get((wildcards.method, int(wildcards.seed)), 0)
     return int(wildcards.round) + 1 < rounds
+
+
+def query_batch(wildcards):
+    """Groups the query of round r adds: `al.batch`, or its entry r - 1 when it is a
+    per-round list. A human oracle's rounds past the list (they go on as long as
+    labels come) take its last entry."""
+    return batch_of(
+        config["datasets"][wildcards.dataset]["al"],
+        int(wildcards.round),
+        f"datasets.{wildcards.dataset}.al.batch",
+        past_end=wildcards.dataset in HUMAN,
+    )
 
 
 def query_group(wildcards):

@@ -54,7 +54,7 @@ rule query_human:
         runtime=res("query_human", "runtime", 30),
     params:
         method=lambda w: dataset_method(config, w.dataset, w.method, METHODS).as_dict(),
-        batch=lambda w: config["datasets"][w.dataset]["al"]["batch"],
+        batch=query_batch,
     script:
         "../scripts/query.py"
 

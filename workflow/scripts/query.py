@@ -11,6 +11,8 @@ run_job(
         seed=int(snakemake.wildcards.seed),
         round_=int(snakemake.wildcards.round),
         out_path=snakemake.output[0],
+        dataset=snakemake.wildcards.dataset,
+        method_name=snakemake.wildcards.method,
     ),
     preload=("spl_al.pool", "spl_al.strategies"),
     show=True,

@@ -83,7 +83,7 @@ def method_variants(config: dict, dataset: str, method: str) -> int:
 def protocol_images(config: dict, dataset: str) -> dict:
     """Training jobs, optimiser steps, training images and forward-pass images of a
     dataset's protocol."""
-    from spl_al.experiment.plan import dataset_runs
+    from spl_al.experiment.plan import dataset_runs, labeled_at
     from spl_al.training import TrainConfig
 
     entry = config["datasets"][dataset]
@@ -105,7 +105,7 @@ def protocol_images(config: dict, dataset: str) -> dict:
     for (method, seed), rounds in dataset_runs(config, dataset).items():
         m = method_variants(config, dataset, method)
         for r in range(rounds):
-            groups = int(al["initial"]) + r * int(al["batch"])
+            groups = labeled_at(al, r)
             if r == 0:
                 if (seed, m) in initial:
                     continue  # train_initial: one fit per seed and variants per group

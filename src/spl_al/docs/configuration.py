@@ -64,6 +64,8 @@ def _allowed(node: dict) -> str:
     """What values a leaf takes, in words."""
     if "enum" in node:
         return "one of " + ", ".join(_fmt(v) for v in node["enum"])
+    if "oneOf" in node or "anyOf" in node:
+        return ", or ".join(_allowed(alt) for alt in node.get("oneOf") or node["anyOf"])
     types = node.get("type", "")
     types = [types] if isinstance(types, str) else list(types)
     words = [t for t in types if t and t != "null"]

@@ -4,6 +4,10 @@ A *method* is a named entry: an acquisition strategy, its parameters, and whethe
 training uses the synthetic variants (the paper's "Syn"). One name is one curve or
 one table row. Sensitivity sweeps generate further entries from a base method with
 one parameter changed, e.g. ``duis_ncand40``, ``duis_alpha0.25``, ``duis_m2``.
+
+A dataset's ``al`` entry sets the labeled counts: ``initial`` groups at round 0, and
+``batch`` more per query, one integer for every query or a list with one per query
+(``batch[r]`` is the query that makes round r + 1): ``labeled_at`` and ``batch_of``.
 """
 
 from __future__ import annotations
@@ -218,8 +222,102 @@ def dataset_runs(config: dict, dataset: str) -> dict[tuple[str, int], int]:
     return runs
 
 
+# ---------------------------------------------------------------- labeled counts
+
+
+def batch_of(al: dict, round_: int, where: str = "al.batch", past_end: bool = False) -> int:
+    """Groups the query that makes round ``round_`` (>= 1) adds: ``al["batch"]``, or its
+    entry ``round_ - 1`` when it is a list. ``past_end``: a query past the list's end
+    (a human oracle's rounds go on as long as labels come) takes its last entry
+    instead of being refused. ``where`` names the key in the error."""
+    batch = al["batch"]
+    if int(round_) < 1:
+        raise ValueError(f"round {round_!r} is made by no query (round 0 is the initial set).")
+    if not isinstance(batch, list | tuple):
+        return int(batch)
+    if int(round_) > len(batch):
+        if past_end and batch:
+            return int(batch[-1])
+        raise ValueError(
+            f"config key {where!r} lists {len(batch)} per-round batches, so no query makes "
+            f"round {round_}; give one batch per query (rounds - 1 of them)."
+        )
+    return int(batch[int(round_) - 1])
+
+
+def labeled_at(al: dict, round_: int) -> int:
+    """Groups labeled in round ``round_``: ``initial`` plus every batch up to it."""
+    return int(al["initial"]) + sum(batch_of(al, r) for r in range(1, int(round_) + 1))
+
+
+def train_pool_size(entry: dict) -> int | None:
+    """Groups in the training split of a dataset entry when its config fixes them (a
+    synthetic set, or a folder's synthetic stand-in), else None (a folder, captures,
+    an unlabeled folder: knowable only by reading the data). Mirrors
+    ``spl_al.data.synthetic.stratified_split``: round(test_fraction * n_c) of each
+    class go to test."""
+    source = entry.get("source")
+    standin = source == "folder" and not entry.get("path") and entry.get("standin", False)
+    if source != "synthetic" and not standin:
+        return None
+    syn = entry.get("synthesis") or {}
+    test_fraction = float(syn.get("test_fraction", 0.3))
+    if entry.get("task") == "classification":
+        from spl_al.scenes.objects import CATEGORIES
+
+        n_per_class = int(syn.get("n_per_class", 100))
+        n_classes = len(syn.get("classes") or CATEGORIES)
+        return n_classes * (n_per_class - round(test_fraction * n_per_class))
+    n = int(syn.get("n_samples", 300))  # one group: the street scans split as one class
+    return n - round(test_fraction * n)
+
+
+def _check_batches(dataset: str, entry: dict, rounds: int) -> None:
+    """A per-round batch list needs one batch per query of the longest run."""
+    batch = entry["al"]["batch"]
+    if not isinstance(batch, list | tuple) or rounds < 1:
+        return
+    if len(batch) != rounds - 1:
+        raise ValueError(
+            f"config key 'datasets.{dataset}.al.batch' lists {len(batch)} per-round batches "
+            f"but the dataset's experiments make {rounds - 1} queries ({rounds} rounds); "
+            f"give {rounds - 1} batches or set the rounds to {len(batch) + 1}."
+        )
+
+
+def _check_candidate_pools(config: dict, dataset: str, runs: dict, specs: dict) -> None:
+    """N_cand at most half the unlabeled pool at every query, where the config fixes
+    the pool's size."""
+    from spl_al.strategies import get
+    from spl_al.strategies.duis import n_cand_error
+
+    entry = config["datasets"][dataset]
+    n_train = train_pool_size(entry)
+    if n_train is None:
+        return
+    rounds_of: dict[str, int] = {}
+    for (method, _seed), rounds in runs.items():
+        rounds_of[method] = max(rounds_of.get(method, 0), rounds)
+    points = sweep_points(config)
+    for method, rounds in sorted(rounds_of.items()):
+        spec = dataset_method(config, dataset, method, specs)
+        n_cand = getattr(get(spec.strategy, **spec.params), "n_cand", None)
+        if n_cand is None:
+            continue
+        swept = points.get(method, {}).get("parameter") == "n_cand"
+        overridden = "n_cand" in ((entry.get("method_params") or {}).get(method) or {})
+        key = "the 'sweeps.n_cand' values" if swept and not overridden else None
+        for r in range(1, rounds):
+            n_unlabeled = n_train - labeled_at(entry["al"], r - 1)
+            message = n_cand_error(n_cand, n_unlabeled, r, dataset, method, key=key)
+            if message:
+                raise ValueError(message)
+
+
 def check_plan(config: dict) -> None:
-    """Every method a dataset's experiments name must exist; rounds must be >= 1."""
+    """Every method a dataset's experiments name must exist; rounds must be >= 1; a
+    per-round batch list has one batch per query; N_cand is at most half the unlabeled
+    pool at every query (where the config fixes the pool's size)."""
     specs = method_specs(config)
     for dataset, entry in config["datasets"].items():
         if entry.get("source") == "unlabeled" and entry.get("oracle") != "human":
@@ -237,3 +335,6 @@ def check_plan(config: dict) -> None:
                 raise ValueError(
                     f"config key 'datasets.{dataset}.experiments': rounds must be >= 1."
                 )
+        runs = dataset_runs(config, dataset)
+        _check_batches(dataset, entry, max(runs.values(), default=0))
+        _check_candidate_pools(config, dataset, runs, specs)

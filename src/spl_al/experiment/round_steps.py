@@ -519,25 +519,61 @@ def score_round(
 
 
 def query_round(
-    scores_path, labeled_path, method: dict, batch: int, seed: int, round_: int, out_path
+    scores_path,
+    labeled_path,
+    method: dict,
+    batch: int,
+    seed: int,
+    round_: int,
+    out_path,
+    dataset: str | None = None,
+    method_name: str | None = None,
 ) -> dict:
     """Select ``batch`` unlabeled groups with the method's strategy; the oracle labels
-    them; write the next round's labeled set (``round_`` is that next round)."""
+    them; write the next round's labeled set (``round_`` is that next round).
+
+    A k-means candidate pool strategy (DUIS, diversity) must draw N_cand from at least
+    twice as many unlabeled groups: else one sentence naming ``dataset``/``method_name``,
+    the round, N_cand and the pool (``CandidatePoolTooLarge``). The record gives the
+    unlabeled pool's size, N_cand (None without a candidate pool) and their ratio."""
     from spl_al.pool import Pool
     from spl_al.strategies import StrategyInputs, get
+    from spl_al.strategies.duis import CandidatePoolTooLarge, n_cand_error
 
     spec = MethodSpec(name="", **method)
     inputs = StrategyInputs.load(scores_path)
     labeled = read_labeled(labeled_path)
+    strategy = get(spec.strategy, **spec.params)
+    n_unlabeled = int(inputs.n_unlabeled)
+    n_cand = getattr(strategy, "n_cand", None)
+    try:
+        if n_cand is not None:
+            strategy.check_pool(n_unlabeled)
+    except CandidatePoolTooLarge as err:
+        message = n_cand_error(
+            err.n_cand,
+            err.n_unlabeled,
+            round_,
+            dataset,
+            method_name,
+            seed,
+            fraction=strategy.max_cand_fraction,
+        )
+        raise CandidatePoolTooLarge(message, err.n_cand, err.n_unlabeled) from None
     rng = np.random.default_rng(step_seed(seed, round_ - 1, _QUERY_STREAM))
-    picked = get(spec.strategy, **spec.params).select(inputs, int(batch), rng)
-    n_train = int(labeled.size + inputs.unlabeled_idx.size)
+    picked = strategy.select(inputs, int(batch), rng)
+    n_train = int(labeled.size + n_unlabeled)
     pool = Pool(n_train, labeled)
     pool.add(picked)
     record = {
         "seed": int(seed),
         "round": int(round_),
         "n_labeled": int(pool.n_labeled),
+        "batch": int(batch),
+        # the pool the query drew from, and the k-means candidate pool's share of it
+        "n_unlabeled": n_unlabeled,
+        "n_cand": None if n_cand is None else int(n_cand),
+        "cand_ratio": None if n_cand is None or not n_unlabeled else n_cand / n_unlabeled,
         "queried": np.asarray(picked, dtype=np.int64).tolist(),
         "pool_indices": pool.labeled_idx.tolist(),
     }

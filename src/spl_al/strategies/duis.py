@@ -2,7 +2,9 @@
 
 1. phi_i = mean_m phi(I_i^(m)): group features averaged over the M+1 images.
 2. k-means with N_cand clusters over {phi_i} of the unlabeled pool; the group
-   nearest each centre (each group used once) forms the candidate pool C.
+   nearest each centre (each group used once) forms the candidate pool C. N_cand
+   may be at most half the unlabeled pool (``MAX_CAND_FRACTION``): C must stay a
+   diverse subset of the pool, not most of it.
 3. For each candidate, over its task units u, with q_m(u) the class probabilities
    of image m and qbar(u) = mean_m q_m(u):
        gamma_i = mean_u [ qbar(u, top1) - qbar(u, top2) ]       (small = uncertain)
@@ -22,6 +24,51 @@ from spl_al.strategies.units import check_points, check_probs, top_gap, top_k, u
 
 # elements of the centres x points distance block computed at once (float32: 32 MB)
 _CHUNK_ELEMENTS = 1 << 23
+# N_cand may be at most this share of the unlabeled pool the candidates are drawn
+# from: a k-means pool of most of the pool is no longer a diverse subset of it.
+MAX_CAND_FRACTION = 0.5
+
+
+class CandidatePoolTooLarge(ValueError):
+    """N_cand is more than ``MAX_CAND_FRACTION`` of the unlabeled pool of a query."""
+
+    def __init__(self, message: str, n_cand: int, n_unlabeled: int):
+        super().__init__(message)
+        self.n_cand, self.n_unlabeled = int(n_cand), int(n_unlabeled)
+
+
+def n_cand_error(
+    n_cand: int,
+    n_unlabeled: int,
+    round_: int | None = None,
+    dataset: str | None = None,
+    method: str | None = None,
+    seed: int | None = None,
+    key: str | None = None,
+    fraction: float = MAX_CAND_FRACTION,
+) -> str | None:
+    """The one-sentence error when N_cand is more than ``fraction`` (a half) of the
+    ``n_unlabeled`` groups a query draws from (the query that makes round ``round_``
+    of ``dataset``/``method``, seed ``seed``), else None. ``key``: what to set
+    (default ``datasets.{dataset}.method_params.{method}.n_cand``)."""
+    if n_cand <= fraction * n_unlabeled:
+        return None
+    limit = int(fraction * n_unlabeled)
+    share = "half" if fraction == 0.5 else f"{fraction:.0%}"
+    who = f"{dataset}/{method}" if dataset and method else (method or "")
+    if who and seed is not None:
+        who += f" seed {seed}"
+    query = "the query" if round_ is None else f"the query that makes round {round_}"
+    if key is None:
+        key = (
+            f"datasets.{dataset}.method_params.{method}.n_cand" if dataset and method else "n_cand"
+        )
+    return (
+        f"{who + ': ' if who else ''}{query} draws a k-means candidate pool of "
+        f"N_cand = {n_cand} from {n_unlabeled} unlabeled groups "
+        f"({n_cand / max(n_unlabeled, 1):.0%}, more than {share} of them: no longer a "
+        f"diverse subset); set {key} <= {limit}."
+    )
 
 
 def margin_and_inconsistency(probs, valid=None, image_valid=None) -> tuple[np.ndarray, np.ndarray]:
@@ -193,13 +240,22 @@ class DUISStrategy(Strategy):
         alpha: weight of inconsistency (0.5 in the paper).
         eps: the min-max normalisation's epsilon.
         max_iter: k-means iterations at most.
+        max_cand_fraction: the largest share of the unlabeled pool N_cand may be
+            (``MAX_CAND_FRACTION``, a half): a larger N_cand raises
+            ``CandidatePoolTooLarge`` at the query; None lifts the limit (a pool of
+            n <= N_cand groups is then ranked whole).
     """
 
     name = "duis"
     needs = frozenset({"group_features", "margin_inconsistency"})
 
     def __init__(
-        self, n_cand: int = 500, alpha: float = 0.5, eps: float = 1e-8, max_iter: int = 100
+        self,
+        n_cand: int = 500,
+        alpha: float = 0.5,
+        eps: float = 1e-8,
+        max_iter: int = 100,
+        max_cand_fraction: float | None = MAX_CAND_FRACTION,
     ):
         if isinstance(n_cand, bool) or not isinstance(n_cand, int | np.integer) or n_cand < 1:
             raise ValueError(f"n_cand must be an integer >= 1, got {n_cand!r}.")
@@ -209,19 +265,34 @@ class DUISStrategy(Strategy):
             raise ValueError(f"eps must be > 0, got {eps!r}.")
         if int(max_iter) < 1:
             raise ValueError(f"max_iter must be >= 1, got {max_iter!r}.")
+        if max_cand_fraction is not None and not 0.0 < max_cand_fraction <= 1.0:
+            raise ValueError(
+                f"max_cand_fraction must be in (0, 1] or None, got {max_cand_fraction!r}."
+            )
         self.n_cand, self.alpha, self.eps, self.max_iter = (
             int(n_cand),
             float(alpha),
             float(eps),
             int(max_iter),
         )
+        self.max_cand_fraction = None if max_cand_fraction is None else float(max_cand_fraction)
 
     def params(self) -> dict:
         """The strategy's parameters, as recorded with its results."""
         return {"n_cand": self.n_cand, "alpha": self.alpha, "eps": self.eps}
 
+    def check_pool(self, n_unlabeled: int) -> None:
+        """Raise ``CandidatePoolTooLarge`` when N_cand is more than ``max_cand_fraction``
+        of ``n_unlabeled`` groups (an empty pool, which makes no query, passes)."""
+        if self.max_cand_fraction is None or n_unlabeled == 0:
+            return
+        message = n_cand_error(self.n_cand, n_unlabeled, fraction=self.max_cand_fraction)
+        if message:
+            raise CandidatePoolTooLarge(message, self.n_cand, n_unlabeled)
+
     def candidates(self, inputs: StrategyInputs, k: int, rng: np.random.Generator) -> np.ndarray:
         """Positions of the candidate pool C for a budget of ``k``."""
+        self.check_pool(inputs.n_unlabeled)
         return candidate_pool(inputs.group_features, max(self.n_cand, k), rng, self.max_iter)
 
     def _select(self, inputs: StrategyInputs, k: int, rng: np.random.Generator) -> np.ndarray:
