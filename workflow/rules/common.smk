@@ -16,8 +16,8 @@ from spl_al.data.external import folder_has_levels
 from spl_al.labeling import lists_training_rows
 from spl_al.experiment.warm import Server
 from spl_al.experiment.plan import (
-    budget_families,
     batch_of,
+    budget_families,
     check_plan,
     dataset_method,
     dataset_runs,
