@@ -1,10 +1,21 @@
-"""The learnability benchmark's command line: recipe overrides reach the learner."""
+"""The benches: recipe overrides reach the learner, tuning never reads the test split,
+the projection's counts, the capture bench."""
 
+import ast
+import dataclasses
+from pathlib import Path
+
+import numpy as np
 import pytest
+import yaml
 
-from spl_al.bench import learnability
-from spl_al.data import make_classification_dataset
+import spl_al.bench
+from spl_al.bench import learnability, spread
+from spl_al.data import Dataset, make_classification_dataset
 from spl_al.variants import make_variants
+
+ROOT = Path(__file__).resolve().parent.parent
+BENCH_MODULES = sorted(Path(spl_al.bench.__file__).parent.glob("*.py"))
 
 
 def test_recipe_overrides_read_yaml_values():
@@ -31,8 +42,11 @@ def test_learnability_runs_a_dataset_file_with_an_overridden_recipe(tmp_path, ca
         "fit.min_steps=0",
     ]
     assert learnability.main(args) == 0
-    row = next(line for line in capsys.readouterr().out.splitlines() if line.startswith("| tiny"))
+    out = capsys.readouterr().out
+    row = next(line for line in out.splitlines() if line.startswith("| tiny"))
     assert row.count("±") == 3  # linear reference, learner, learner with variants
+    assert "8 training groups = 6 fit + 2 validation" in out
+    assert "validation split: 0.2 of the training pool, seed 0" in out
     with pytest.raises(ValueError, match=r"TrainConfig\.lr"):
         learnability.main([*args, "fit.lr=-1"])
 
@@ -95,3 +109,74 @@ def test_capture_bench_reads_every_format_back_to_its_simulation(capsys, monkeyp
     for row in rows:  # sigma 520 ps, MSPPP 5, SBR 1 simulated
         assert abs(float(row[8]) / 520 - 1) < 0.1 and abs(float(row[9]) / 5 - 1) < 0.1
         assert abs(float(row[10]) - 1) < 0.1 and row[2] == rows[0][2]
+
+
+# ---------------------------------------------------------------- no tuning on the test split
+
+
+def _test_split_reads(source: str) -> list[str]:
+    """Where ``source`` reaches for the test split: ``test_idx``, ``level_idx`` (its
+    split is "test" unless told) or the string "test" (``split == "test"``)."""
+    hits = []
+    for node in ast.walk(ast.parse(source)):
+        name = getattr(node, "attr", None) or getattr(node, "id", None)
+        if name in ("test_idx", "level_idx"):
+            hits.append(f"line {node.lineno}: {name}")
+        elif isinstance(node, ast.Constant) and node.value == "test":
+            hits.append(f"line {node.lineno}: 'test'")
+    return hits
+
+
+def test_the_scan_finds_what_the_old_benches_did():
+    assert _test_split_reads("test = dataset.test_idx") == ["line 1: test_idx"]
+    assert _test_split_reads("x = d.split == 'test'\ny = d.level_idx('low')") == [
+        "line 1: 'test'",
+        "line 2: level_idx",
+    ]
+
+
+@pytest.mark.parametrize("module", BENCH_MODULES, ids=lambda p: p.name)
+def test_no_bench_reads_the_test_split(module):
+    hits = _test_split_reads(module.read_text())
+    assert not hits, f"spl_al/bench/{module.name} reads the test split: {hits}"
+
+
+class _TestSplitRaises(Dataset):
+    @property
+    def test_idx(self):
+        raise AssertionError("a tuning bench read the test split")
+
+
+def _poisoned(data: Dataset) -> Dataset:
+    """``data`` with garbage images, variants and labels in its test split, whose
+    ``test_idx`` raises."""
+    test = data.test_idx
+    rng = np.random.default_rng(0)
+    labels = data.labels.copy()
+    labels[test] = 0  # one class: an accuracy on these differs from one on the real labels
+    depth = data.depth_m.copy()
+    depth[test] = rng.uniform(1.0, 20.0, depth[test].shape)
+    variants = data.variant_depth_m.copy()
+    variants[test] = rng.uniform(1.0, 20.0, variants[test].shape)
+    fields = {f.name: getattr(data, f.name) for f in dataclasses.fields(data)}
+    fields.update(labels=labels, depth_m=depth, valid=None, variant_depth_m=variants)
+    return _TestSplitRaises(**fields)
+
+
+def test_tuning_benches_score_without_the_test_split():
+    data = make_classification_dataset(
+        n_per_class=8, image_shape=(16, 16), classes=("apple", "bike"), workers=1
+    )
+    data = make_variants(data, n_variants=1, seed=0)
+    poisoned = _poisoned(data)
+    with pytest.raises(AssertionError, match="read the test split"):
+        _ = poisoned.test_idx
+    config = yaml.safe_load((ROOT / "config" / "config.yaml").read_text())
+    train = config["datasets"]["real_cls"]["train"]
+    fit = {**train["fit"], "steps": 2, "min_steps": 0}
+    kwargs = {"fractions": (0.5, 1.0), "seeds": (1,), "log": lambda _: None}
+    clean = learnability.learning_curves(data, train["model"], fit, **kwargs)
+    assert learnability.learning_curves(poisoned, train["model"], fit, **kwargs) == clean
+    assert [r["n"] for r in clean] == [5, 10]  # halves of the 10 groups the fit part keeps
+    row = spread.spread_row(data, 4, train["model"], fit, [1, 2], variants=True)
+    assert spread.spread_row(poisoned, 4, train["model"], fit, [1, 2], variants=True) == row

@@ -1,16 +1,23 @@
 """Learnability benchmark: ``python -m spl_al.bench learnability [DATASET.npz ...]``.
 
-How well does the learner do with few labels? For each dataset: test accuracy (mIoU
-for segmentation) of the configured model and training recipe against the number of
-randomly labeled groups (about 2, 5, 10, 25 and 100% of the training pool), trained
-on the observed images only and on every image of the labeled groups (the variants
-too), mean ± std over seeds, beside a linear reference on the same labeled sets:
+How well does the learner do with few labels? For each dataset: validation accuracy
+(mIoU for segmentation) of the configured model and training recipe against the number
+of randomly labeled groups (about 2, 5, 10, 25 and 100% of the fit part of the training
+pool), trained on the observed images only and on every image of the labeled groups
+(the variants too), mean ± std over seeds, beside a linear reference on the same
+labeled sets:
 
 - classification: logistic regression on the image standardised as the network sees
   it (``spl_al.models.to_input``), bilinearly downsampled to 16x16, plus the
   downsampled validity mask (512 features);
 - segmentation: per-pixel logistic regression on local depth features (range, row,
   3x3 and 7x7 mean depth offsets, 3x3 spread, gradients, local validity).
+
+Validation, not test: this bench tunes recipes, so it never reads the test split. The
+training pool is cut once per dataset by ``spl_al.data.validation_split`` (fraction
+``--val-fraction``, default 0.2 of each class for classification, of the pool for
+segmentation; seed ``--val-seed``, default 0); the labeled sets are drawn from the fit
+part and every score is on the validation part's observed images.
 
 Without arguments it runs the default config's datasets (synthesised as the pipeline
 makes them) and SPL digits, a folder dataset nothing was tuned on
@@ -28,11 +35,25 @@ from pathlib import Path
 import numpy as np
 
 from spl_al.bench.timing import markdown_table
+from spl_al.data.validation import VALIDATION_FRACTION, VALIDATION_SEED, validation_split
 from spl_al.pool import initial_labeled_set
 
 FRACTIONS = (0.02, 0.05, 0.10, 0.25, 1.0)
 SEEDS = (1, 2, 3)
 LINEAR_SIZE = 16
+
+
+# ---------------------------------------------------------------- the validation split
+
+
+def tuning_split(
+    dataset, fraction: float = VALIDATION_FRACTION, seed: int = VALIDATION_SEED
+) -> tuple[np.ndarray, np.ndarray]:
+    """(fit, validation) sample indices: the training pool cut by ``validation_split``,
+    stratified by class for classification; the test split is not read."""
+    pool = dataset.train_idx
+    labels = dataset.labels[pool] if dataset.task == "classification" else None
+    return validation_split(pool, fraction, seed, labels=labels)
 
 
 # ---------------------------------------------------------------- linear references
@@ -72,20 +93,21 @@ def _pixel_features(depth_m, valid) -> np.ndarray:
     return np.stack([np.clip(f, -50, 50) for f in feats], axis=-1)
 
 
-def linear_reference(dataset, labeled: np.ndarray, seed: int) -> float:
-    """Test accuracy (mIoU) of the linear reference trained on samples ``labeled``."""
+def linear_reference(dataset, labeled: np.ndarray, held_out: np.ndarray, seed: int) -> float:
+    """Accuracy (mIoU) on samples ``held_out`` of the linear reference trained on
+    samples ``labeled``."""
     from sklearn.linear_model import LogisticRegression
     from sklearn.preprocessing import StandardScaler
 
-    test = dataset.test_idx
+    val = np.asarray(held_out)
     if dataset.task == "classification":
         x_tr = _linear_image_features(dataset.depth_m[labeled], dataset.valid[labeled])
         y_tr = dataset.labels[labeled]
-        x_te = _linear_image_features(dataset.depth_m[test], dataset.valid[test])
+        x_val = _linear_image_features(dataset.depth_m[val], dataset.valid[val])
         if np.unique(y_tr).size < 2:
-            return float(np.mean(dataset.labels[test] == y_tr[0]))
+            return float(np.mean(dataset.labels[val] == y_tr[0]))
         clf = LogisticRegression(max_iter=2000).fit(x_tr, y_tr)
-        return float(np.mean(clf.predict(x_te) == dataset.labels[test]))
+        return float(np.mean(clf.predict(x_val) == dataset.labels[val]))
     from spl_al.training.metrics import confusion_per_image, segmentation_summary
 
     f_tr = _pixel_features(dataset.depth_m[labeled], dataset.valid[labeled])
@@ -97,9 +119,11 @@ def linear_reference(dataset, labeled: np.ndarray, seed: int) -> float:
         x_tr, y_tr = x_tr[pick], y_tr[pick]
     scaler = StandardScaler().fit(x_tr)
     clf = LogisticRegression(max_iter=500).fit(scaler.transform(x_tr), y_tr)
-    f_te = _pixel_features(dataset.depth_m[test], dataset.valid[test])
-    pred = clf.predict(scaler.transform(f_te.reshape(-1, f_te.shape[-1]))).reshape(f_te.shape[:3])
-    target = np.where(dataset.valid[test], dataset.labels[test], 255)
+    f_val = _pixel_features(dataset.depth_m[val], dataset.valid[val])
+    pred = clf.predict(scaler.transform(f_val.reshape(-1, f_val.shape[-1]))).reshape(
+        f_val.shape[:3]
+    )
+    target = np.where(dataset.valid[val], dataset.labels[val], 255)
     conf = confusion_per_image(pred, target, len(dataset.classes)).sum(0)
     return float(segmentation_summary(conf, dataset.classes)["miou"])
 
@@ -108,10 +132,17 @@ def linear_reference(dataset, labeled: np.ndarray, seed: int) -> float:
 
 
 def learner_score(
-    dataset, labeled: np.ndarray, model_cfg: dict, fit_cfg: dict, seed: int, variants: bool
+    dataset,
+    labeled: np.ndarray,
+    held_out: np.ndarray,
+    model_cfg: dict,
+    fit_cfg: dict,
+    seed: int,
+    variants: bool,
 ) -> float:
-    """Test accuracy (mIoU) of the configured model trained on samples ``labeled``
-    (with their variants when ``variants``), as a pipeline round trains it."""
+    """Accuracy (mIoU) on the observed images of samples ``held_out`` of the configured
+    model trained on samples ``labeled`` (with their variants when ``variants``), as a
+    pipeline round trains it."""
     from spl_al.experiment.steps import model_for
     from spl_al.training import TrainConfig, evaluate, train
 
@@ -125,12 +156,12 @@ def learner_score(
         model, images, valid.reshape(images.shape), targets, fit, seed=seed, log=_Null(),
         groups=len(labeled),
     )  # fmt: skip
-    test = dataset.test_idx
+    val = np.asarray(held_out)
     metrics = evaluate(
         model,
-        dataset.depth_m[test],
-        dataset.valid[test],
-        dataset.labels[test],
+        dataset.depth_m[val],
+        dataset.valid[val],
+        dataset.labels[val],
         precision=fit.precision,
     )
     return float(metrics["accuracy" if dataset.task == "classification" else "miou"])
@@ -150,11 +181,19 @@ def budgets(n_pool: int, fractions=FRACTIONS) -> list[int]:
 
 
 def learning_curves(
-    dataset, model_cfg: dict, fit_cfg: dict, fractions=FRACTIONS, seeds=SEEDS, log=print
+    dataset,
+    model_cfg: dict,
+    fit_cfg: dict,
+    fractions=FRACTIONS,
+    seeds=SEEDS,
+    log=print,
+    val_fraction: float = VALIDATION_FRACTION,
+    val_seed: int = VALIDATION_SEED,
 ) -> list[dict]:
-    """One row per budget: the budget and the scores of every seed (linear reference,
-    learner on observed images, learner with variants)."""
-    pool = dataset.train_idx
+    """One row per budget: the budget and the validation scores of every seed (linear
+    reference, learner on observed images, learner with variants), labeled sets drawn
+    from the fit part of ``tuning_split(dataset, val_fraction, val_seed)``."""
+    pool, held_out = tuning_split(dataset, val_fraction, val_seed)
     rows = []
     for size in budgets(len(pool), fractions):
         row = {
@@ -167,14 +206,11 @@ def learning_curves(
         for seed in seeds:
             labeled = pool[initial_labeled_set(len(pool), size, seed)]
             start = time.perf_counter()
-            row["linear"].append(linear_reference(dataset, labeled, seed))
-            row["observed"].append(
-                learner_score(dataset, labeled, model_cfg, fit_cfg, seed, variants=False)
-            )
+            row["linear"].append(linear_reference(dataset, labeled, held_out, seed))
+            recipe = (dataset, labeled, held_out, model_cfg, fit_cfg, seed)
+            row["observed"].append(learner_score(*recipe, variants=False))
             if dataset.n_variants:
-                row["variants"].append(
-                    learner_score(dataset, labeled, model_cfg, fit_cfg, seed, variants=True)
-                )
+                row["variants"].append(learner_score(*recipe, variants=True))
             log(
                 f"  n={size} seed={seed}: linear {row['linear'][-1]:.3f} "
                 f"observed {row['observed'][-1]:.3f} "
@@ -260,6 +296,15 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--only", nargs="*", help="config datasets to run (default: all)")
     parser.add_argument("--seeds", type=int, nargs="*", default=list(SEEDS))
     parser.add_argument("--fractions", type=float, nargs="*", default=list(FRACTIONS))
+    parser.add_argument(
+        "--val-fraction",
+        type=float,
+        default=VALIDATION_FRACTION,
+        help="share of the training pool (of each class) held out for scoring",
+    )
+    parser.add_argument(
+        "--val-seed", type=int, default=VALIDATION_SEED, help="seed of the validation split"
+    )
     parser.add_argument("--cache", type=Path, default=None, help="folder for synthesised data")
     parser.add_argument("--no-digits", action="store_true", help="skip the SPL digits folder")
     parser.add_argument(
@@ -306,12 +351,22 @@ def main(argv: list[str] | None = None) -> int:
     for name, data, model_cfg, fit_cfg in entries:
         model_cfg = {**model_cfg, **overrides["model"]}
         fit_cfg = {**fit_cfg, **overrides["fit"]}
-        print(f"{name}: {len(data.train_idx)} training groups, M = {data.n_variants}", flush=True)
-        rows = learning_curves(data, model_cfg, fit_cfg, args.fractions, args.seeds)
+        fit, val = tuning_split(data, args.val_fraction, args.val_seed)
+        print(
+            f"{name}: {len(data.train_idx)} training groups = {len(fit)} fit + {len(val)} "
+            f"validation, M = {data.n_variants}",
+            flush=True,
+        )
+        rows = learning_curves(
+            data, model_cfg, fit_cfg, args.fractions, args.seeds,
+            val_fraction=args.val_fraction, val_seed=args.val_seed,
+        )  # fmt: skip
         lines += table_rows(name, rows)
     print()
     print(
-        f"test accuracy (segmentation: mIoU) in %, mean ± std over seeds {args.seeds}; "
+        f"validation accuracy (segmentation: mIoU) in %, mean ± std over seeds {args.seeds}; "
+        f"validation split: {args.val_fraction} of the training pool, seed {args.val_seed} "
+        "(labeled groups: of its fit part); "
         "gain = learner (with variants when present) minus linear reference"
     )
     print(markdown_table(HEADER, lines))

@@ -11,6 +11,7 @@ Public API:
 - ``load_unlabeled_folder``: depth files without labels, the pool of a human oracle.
 - ``observe``: observed images of clean depth at per-sample conditions.
 - ``contact_sheet``, ``variants_sheet``: PNG pictures of a dataset.
+- ``validation_split``: a seeded, class-stratified cut of the training pool for tuning.
 """
 
 from spl_al.data.dataset import LEVELS, SCENE_FIELDS, Dataset
@@ -19,6 +20,7 @@ from spl_al.data.observe import DEFAULT_LEVELS, DEFAULT_SBR, condition_set, obse
 from spl_al.data.pictures import contact_sheet, variants_sheet
 from spl_al.data.synthetic import make_classification_dataset, make_segmentation_dataset
 from spl_al.data.unlabeled import load_unlabeled_folder
+from spl_al.data.validation import validation_split
 
 __all__ = [
     "DEFAULT_LEVELS",
@@ -33,5 +35,6 @@ __all__ = [
     "make_classification_dataset",
     "make_segmentation_dataset",
     "observe",
+    "validation_split",
     "variants_sheet",
 ]

@@ -13,6 +13,7 @@ STREAM_VARIANT = 2  # conditions and photons of the SIV variants
 STREAM_SPLIT = 3  # train / test split and condition levels (dataset-wide)
 STREAM_SUBSET = 4  # which files of an external folder are kept (n_per_class)
 STREAM_INSTANCE = 5  # the shape of a physical object instance (keyed by class, instance)
+STREAM_VALIDATION = 6  # the validation split carved from the training pool for tuning
 
 
 def sample_rng(seed: int, stream: int, uid: int = 0) -> np.random.Generator:
