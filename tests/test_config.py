@@ -98,7 +98,7 @@ def _round_steps(config: dict, dataset: str, steps_by: str | None = None) -> dic
     """(method, round) -> optimiser steps of that round's training, as the pipeline
     trains it (groups labeled at the round, the method's variants per group)."""
     from spl_al.bench.projection import method_variants
-    from spl_al.experiment.plan import dataset_runs
+    from spl_al.experiment.plan import dataset_runs, labeled_at
 
     entry = config["datasets"][dataset]
     fit = {k: v for k, v in entry["train"]["fit"].items() if v is not None}
@@ -107,7 +107,7 @@ def _round_steps(config: dict, dataset: str, steps_by: str | None = None) -> dic
     for (method, _seed), rounds in dataset_runs(config, dataset).items():
         m = method_variants(config, dataset, method)
         for r in range(rounds):
-            groups = entry["al"]["initial"] + r * entry["al"]["batch"]
+            groups = labeled_at(entry["al"], r)
             steps[method, r] = cfg.total_steps(groups * (1 + m), groups)
     return steps
 
