@@ -66,7 +66,17 @@ def _merged(*names: str) -> dict:
     return drop_removed(config)
 
 
-@pytest.mark.parametrize("name", ["ci.yaml", "paper.yaml", "harder.yaml", "decisive.yaml"])
+SHIPPED = [
+    "ci.yaml",
+    "paper.yaml",
+    "harder.yaml",
+    "decisive.yaml",
+    "decisive-synth_cls.yaml",
+    "decisive-street_seg.yaml",
+]
+
+
+@pytest.mark.parametrize("name", SHIPPED)
 def test_every_shipped_override_is_a_valid_config(name):
     """The schema and the plan's cross-key checks (per-round batch lists, N_cand at most
     half the unlabeled pool at every query) both pass."""
@@ -94,6 +104,33 @@ def test_decisive_config_extends_the_default_run_seeds_of_real_cls_only():
     assert decisive["methods"] == default["methods"]
 
 
+@pytest.mark.parametrize(
+    "name, dataset",
+    [
+        ("decisive.yaml", "real_cls"),
+        ("decisive-synth_cls.yaml", "synth_cls"),
+        ("decisive-street_seg.yaml", "street_seg"),
+    ],
+)
+def test_each_decisive_config_runs_one_dataset_with_both_families(name, dataset):
+    """One decisive config per dataset, all into one results folder: the default's data,
+    recipe and seeds 1.. extended, with the matched family and the decomposition."""
+    from spl_al.experiment.plan import experiments_of
+    from spl_al.report.decomposition import METHODS
+
+    default, decisive = _merged(), _merged(name)
+    assert list(decisive["datasets"]) == [dataset]
+    assert decisive["results"] == "results-decisive"
+    ours, theirs = decisive["datasets"][dataset], default["datasets"][dataset]
+    for key in ("synthesis", "variants", "al", "train", "task", "source"):
+        assert ours[key] == theirs[key], key
+    budget = experiments_of(decisive, dataset)["budget"]
+    assert set(METHODS) <= set(budget["methods"])
+    assert len(budget["families"]["matched"]) >= 6  # five twins, Syn+Diversity, DUIS
+    seeds = budget["seeds"]
+    assert seeds[:3] == theirs["experiments"]["budget"]["seeds"][:3] and len(seeds) >= 8
+
+
 def _round_steps(config: dict, dataset: str, steps_by: str | None = None) -> dict:
     """(method, round) -> optimiser steps of that round's training, as the pipeline
     trains it (groups labeled at the round, the method's variants per group)."""
@@ -112,7 +149,7 @@ def _round_steps(config: dict, dataset: str, steps_by: str | None = None) -> dic
     return steps
 
 
-@pytest.mark.parametrize("name", [None, "ci.yaml", "paper.yaml", "harder.yaml", "decisive.yaml"])
+@pytest.mark.parametrize("name", [None, *SHIPPED])
 def test_every_shipped_config_trains_every_method_the_same_steps(name):
     config = _merged(*([name] if name else []))
     for dataset in config["datasets"]:
