@@ -65,7 +65,7 @@ def test_projection_counts_every_training_job_and_image(tmp_path, batch):
         "    variants: {n: 4}\n"
         "    train: {fit: {epochs: 3, min_steps: 0, batch_size: 512}}\n"
         "    experiments:\n"
-        "      budget: {methods: [random, duis], seeds: [1], rounds: 2}\n"
+        "      budget: {methods: [random, duis], seeds: [1], rounds: 2, matched: false}\n"
         "      ablation: null\n"
         "      sensitivity: null\n"
     )
@@ -180,3 +180,34 @@ def test_tuning_benches_score_without_the_test_split():
     assert [r["n"] for r in clean] == [5, 10]  # halves of the 10 groups the fit part keeps
     row = spread.spread_row(data, 4, train["model"], fit, [1, 2], variants=True)
     assert spread.spread_row(poisoned, 4, train["model"], fit, [1, 2], variants=True) == row
+
+
+def test_estimate_counts_what_the_plan_runs(tmp_path):
+    """random, its matched twin Syn+Random and DUIS, two seeds, three rounds: the
+    trainings, round-0 copies and queries a run makes, and the images they touch."""
+    from spl_al.bench import estimate, projection
+
+    override = tmp_path / "small.yaml"
+    override.write_text(
+        "datasets:\n"
+        "  real_cls:\n"
+        "    al: {initial: 10, batch: [5, 10]}\n"
+        "    variants: {n: 4}\n"
+        "    train: {fit: {epochs: 1, min_steps: 7, batch_size: 8}}\n"
+        "    experiments:\n"
+        "      budget: {methods: [random, duis], seeds: [1, 2], rounds: 3, matched: true}\n"
+        "      ablation: null\n"
+        "      sensitivity: null\n"
+    )
+    config = projection.merged_config([override])
+    counts = estimate.plan_counts(config, "real_cls")
+    # round 0 is fitted once per seed and variants per group (random; syn_random and
+    # duis share theirs), rounds 1, 2 by each of the 3 methods
+    assert counts["trainings"] == 2 * (2 + 3 * 2)
+    assert counts["copies"] == 2 * 3 and counts["queries"] == 2 * 3 * 2
+    # 7 steps of 8 images at 10, 15, 25 labeled groups (steps_by: groups)
+    assert counts["train_images"] == counts["trainings"] * 7 * 8
+    n_pool, n_test = 770, 330
+    scored = (n_pool - 10) + (n_pool - 15)  # the pool before the queries of rounds 1, 2
+    # random and syn_random score the observed image, DUIS all 5 images of a group
+    assert counts["forward_images"] == counts["trainings"] * n_test + 2 * (2 + 5) * scored

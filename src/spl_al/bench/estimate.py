@@ -1,0 +1,245 @@
+"""Predicted wall time of a config's run on this machine: ``python -m spl_al.bench estimate``.
+
+Run it before a long run (``--configfile`` as for Snakemake; default: the default
+config). For every dataset it times, on the CPU (or GPU) at hand:
+
+- its model: a few training steps of the dataset's own recipe at the precision
+  ``precision: auto`` resolves to here, and a few forward passes
+  (``spl_al.bench.training.measure``, ``threads_per_job`` threads);
+- its data: a miniature of the dataset synthesised and given its M variants
+  (a few images; the photon simulation and reconstruction cost per pixel).
+
+and multiplies by what the config plans (``spl_al.experiment.plan``): every training's
+optimiser steps (``TrainConfig.total_steps`` at the groups labeled in that round),
+the forward passes of evaluation (the test split every round) and scoring (the
+unlabeled pool before every query, with the variants for DUIS's group scores), the
+data (observed images, variants, the robustness grid), and a start-up cost per job.
+The jobs run ``-j`` at a time (``--jobs``, default 2), so the wall time is the core
+time over the jobs in parallel.
+
+It prints a line per dataset and a total, with the CPU model, threads and precision
+assumed. A prediction, not a measurement: docs/benchmarks.md compares it with runs.
+"""
+
+from __future__ import annotations
+
+import argparse
+import copy
+import os
+import platform
+import time
+from pathlib import Path
+
+from spl_al.bench.projection import merged_config, method_variants, split_sizes
+from spl_al.bench.timing import markdown_table
+
+ROOT = Path(__file__).resolve().parents[3]
+
+# Start-up of one job: a fork of the warm job process, else a new interpreter that
+# imports torch (docs/benchmarks.md#pipeline: 0.21 s and ~2 s per job).
+JOB_START_S = {True: 0.21, False: 2.0}
+# The Snakemake process's own time per job (scheduling, file checks), on the cores the
+# jobs use (docs/benchmarks.md#estimate: fitted to measured runs).
+SCHEDULER_S_PER_JOB = 0.3
+# Report jobs (tables, curves, stats, summary) per dataset, and the fixed ones of a run.
+REPORT_JOBS, FIXED_JOBS = 9, 2
+MINI_IMAGES = {"classification": 2, "segmentation": 6}  # per class / in all
+
+
+def cpu_name() -> str:
+    """The CPU model as lscpu names it (or the platform's word for it)."""
+    try:
+        for line in Path("/proc/cpuinfo").read_text().splitlines():
+            if line.startswith("model name"):
+                return line.split(":", 1)[1].strip()
+    except OSError:
+        pass
+    return platform.processor() or "unknown CPU"
+
+
+def plan_counts(config: dict, dataset: str) -> dict:
+    """What a dataset's experiments run: trainings and their images, forward-pass images
+    (evaluation, scoring), queries and round-0 copies (jobs without training)."""
+    from spl_al.experiment.plan import dataset_method, dataset_runs, labeled_at
+    from spl_al.strategies import GROUP_NEEDS
+    from spl_al.strategies import get as get_strategy
+    from spl_al.training import TrainConfig
+
+    entry = config["datasets"][dataset]
+    n_pool, n_test, _ = split_sizes(entry)
+    fit = {k: v for k, v in entry["train"]["fit"].items() if v is not None}
+    cfg = TrainConfig.from_dict(fit)
+    counts = {"trainings": 0, "train_images": 0, "forward_images": 0, "queries": 0, "copies": 0}
+    initial = set()
+    for (method, seed), rounds in dataset_runs(config, dataset).items():
+        m = method_variants(config, dataset, method)
+        spec = dataset_method(config, dataset, method)
+        needs = get_strategy(spec.strategy, **spec.params).needs
+        scored = 1 + int(config["datasets"][dataset]["variants"]["n"]) if needs & GROUP_NEEDS else 1
+        counts["queries"] += rounds - 1
+        for r in range(rounds):
+            groups = labeled_at(entry["al"], r)
+            if r + 1 < rounds:  # the pool is scored for the next query
+                counts["forward_images"] += (n_pool - groups) * scored
+            if r == 0:
+                counts["copies"] += 1
+                if (seed, m) in initial:
+                    continue  # one round-0 fit per seed and variants per group
+                initial.add((seed, m))
+            n = groups * (1 + m)
+            counts["trainings"] += 1
+            counts["train_images"] += cfg.total_steps(n, groups) * min(cfg.batch_size, n)
+            counts["forward_images"] += n_test
+    return counts
+
+
+def _mini_entry(entry: dict) -> tuple[dict, int]:
+    """A few images of the dataset's own kind (same shape, scenes and sensor), and
+    how many."""
+    mini = copy.deepcopy(entry)
+    syn = mini.setdefault("synthesis", {})
+    syn["workers"] = 1
+    if entry["task"] == "classification":
+        syn["n_per_class"] = MINI_IMAGES["classification"]
+        return mini, MINI_IMAGES["classification"] * 11
+    syn["n_samples"] = MINI_IMAGES["segmentation"]
+    return mini, MINI_IMAGES["segmentation"]
+
+
+def data_seconds_per_image(entry: dict, tmp: Path) -> tuple[float, float]:
+    """(observed image, one variant) seconds per image, timed on a miniature."""
+    from spl_al.data import Dataset
+    from spl_al.experiment.data_steps import make_dataset
+    from spl_al.variants import generate_variants
+
+    mini, n = _mini_entry(entry)
+    mini["source"] = "synthetic" if mini["source"] == "folder" else mini["source"]
+    start = time.perf_counter()
+    make_dataset(mini, tmp / "mini.npz")
+    observed = (time.perf_counter() - start) / n
+    m = int(entry["variants"]["n"])
+    dataset = Dataset.load(tmp / "mini.npz")
+    start = time.perf_counter()
+    generate_variants(dataset, n_variants=m, seed=0, workers=1)
+    return observed, (time.perf_counter() - start) / (n * m)
+
+
+def robustness_images(config: dict, dataset: str) -> int:
+    """Test images the robustness map simulates (0 when it is off for the dataset)."""
+    entry = config["datasets"][dataset]
+    grid = {**(config.get("robustness") or {}), **(entry.get("robustness") or {})}
+    if not grid.get("enabled", True) or "budget" not in entry.get("experiments", {}):
+        return 0
+    _, n_test, _ = split_sizes(entry)
+    n = min(int(grid.get("test_samples") or n_test), n_test)
+    return n * len(grid.get("msppp", [])) * len(grid.get("sbr", []))
+
+
+def _measure(case) -> tuple[float, float]:
+    from spl_al.bench.training import measure
+
+    task, model_cfg, fit, shape, precision, threads, steps, device = case
+    return measure(task, model_cfg, fit, shape, precision, threads, steps, device=device)
+
+
+def concurrent_rates(case, jobs: int) -> tuple[float, float]:
+    """(train, inference) images/s of one job while ``jobs`` jobs train at once, as
+    ``snakemake -j`` runs them: two trainings on two cores share the memory bandwidth
+    and caches, and each runs ~20% slower than alone (docs/benchmarks.md#estimate)."""
+    if jobs <= 1:
+        return _measure(case)
+    import multiprocessing
+
+    with multiprocessing.get_context("fork").Pool(jobs) as pool:
+        rates = pool.map(_measure, [case] * jobs)
+    return min(r[0] for r in rates), min(r[1] for r in rates)
+
+
+def estimate_dataset(config: dict, dataset: str, tmp: Path, steps: int, jobs: int = 2) -> dict:
+    """Seconds of one dataset's jobs, by part, and its job count."""
+    import torch
+
+    from spl_al.bench.projection import model_case
+    from spl_al.config import dataset_precision
+    from spl_al.models import model_class
+    from spl_al.training import resolve_device
+    from spl_al.training.precision import resolve_precision
+
+    entry = config["datasets"][dataset]
+    task, _, model_cfg, fit, shape, _ = model_case(config, dataset)
+    device = resolve_device(config.get("device", "auto"))
+    precision = resolve_precision(
+        dataset_precision(config, dataset), device, model_class(task, model_cfg.get("arch"))
+    )
+    threads = int(config.get("threads_per_job", 1))
+    torch.set_num_threads(threads)
+    case = (task, model_cfg, fit, shape, precision, threads, steps, str(device))
+    train_rate, infer_rate = concurrent_rates(case, jobs if device.type == "cpu" else 1)
+    counts = plan_counts(config, dataset)
+    observed_s, variant_s = data_seconds_per_image(entry, tmp)
+    n_pool, n_test, _ = split_sizes(entry)
+    n_images, m = n_pool + n_test, int(entry["variants"]["n"])
+    robust = robustness_images(config, dataset)
+    jobs = (
+        counts["trainings"] + counts["queries"] + counts["copies"] + REPORT_JOBS
+        + 2 + 2 * int(entry["variants"].get("shards", 1)) + (2 if robust else 0)
+    )  # fmt: skip
+    return {
+        "precision": precision,
+        "train_rate": train_rate,
+        "train_s": counts["train_images"] / train_rate,
+        "forward_s": counts["forward_images"] / infer_rate,
+        # the robustness grid re-observes the test images as the observed ones were made
+        "data_s": (n_images + robust) * observed_s + n_images * m * variant_s,
+        "jobs": jobs,
+        "trainings": counts["trainings"],
+    }
+
+
+def main(argv: list[str]) -> int:
+    """Print the estimate table of a config; the exit code."""
+    import tempfile
+
+    parser = argparse.ArgumentParser(prog="python -m spl_al.bench estimate", description=__doc__)
+    parser.add_argument(
+        "--configfile", type=Path, nargs="*", default=[], help="override files, as Snakemake's"
+    )
+    parser.add_argument("--jobs", "-j", type=int, default=2, help="jobs at a time (snakemake -j)")
+    parser.add_argument("--steps", type=int, default=30, help="timed training steps per model")
+    args = parser.parse_args(argv)
+    config = merged_config(args.configfile)
+    warm = bool(config.get("warm_worker", True))
+    rows, total_core, total_jobs = [], 0.0, FIXED_JOBS
+    with tempfile.TemporaryDirectory() as tmp:
+        for dataset in config["datasets"]:
+            if config["datasets"][dataset].get("source") not in ("synthetic", "folder"):
+                print(f"{dataset}: source {config['datasets'][dataset].get('source')!r} is "
+                      "not estimated (its size is known only from its files).")  # fmt: skip
+                continue
+            part = estimate_dataset(config, dataset, Path(tmp), args.steps, args.jobs)
+            core = part["train_s"] + part["forward_s"] + part["data_s"]
+            core += part["jobs"] * (JOB_START_S[warm] + SCHEDULER_S_PER_JOB)
+            total_core += core
+            total_jobs += part["jobs"]
+            rows.append(
+                [dataset, part["precision"], f"{part['train_rate']:.0f}",
+                 str(part["trainings"]), str(part["jobs"]), f"{part['train_s'] / 60:.1f}",
+                 f"{part['forward_s'] / 60:.1f}", f"{part['data_s'] / 60:.1f}",
+                 f"{core / args.jobs / 60:.1f}"]
+            )  # fmt: skip
+    wall = total_core / args.jobs
+    rows.append(["**total**", "", "", "", str(total_jobs), "", "", "", f"**{wall / 60:.1f}**"])
+    header = ["dataset", "precision", "train images/s", "trainings", "jobs", "train core-min",
+              "eval+score core-min", "data core-min", "wall min"]  # fmt: skip
+    threads = int(config.get("threads_per_job", 1))
+    print(
+        f"## Estimated wall time of `snakemake -j{args.jobs}` ({cpu_name()}, {os.cpu_count()} "
+        f"cores, {threads} thread(s) per job, load average {os.getloadavg()[0]:.2f}, "
+        f"{time.strftime('%Y-%m-%d')})\n"
+    )
+    print(markdown_table(header, rows))
+    print(
+        f"\nPredicted: {wall / 60:.0f} min for {total_jobs} jobs. Core minutes by part; "
+        "wall = core time / jobs at a time (a prediction: docs/benchmarks.md#estimate)."
+    )
+    return 0
