@@ -199,3 +199,20 @@ def test_small_n_never_says_supported():
     assert set(out["rule"]) == {"small-n"}
     assert not set(out["verdict"]) & {"supported", "contradicted"}
     assert "seeds agree (untested)" in set(out["verdict"])
+
+
+def test_budget_curves_draw_each_family_in_its_own_panel(tmp_path):
+    from spl_al.report.curves import curves_figure
+
+    df = records()
+    panels = {
+        "as the paper compares": ["random", "margin", "duis"],
+        "matched training": ["syn_random", "syn_margin", "syn_diversity", "duis"],
+    }
+    fig = curves_figure(df, panels=panels)
+    axes = fig.get_axes()
+    assert [ax.get_title() for ax in axes] == list(panels)
+    assert [len(ax.get_lines()) for ax in axes] == [3, 4]
+    assert [t.get_text() for t in axes[1].get_legend().get_texts()][-1] == "DUIS"
+    # one panel without a matched family
+    assert len(curves_figure(df, methods=["random", "duis"]).get_axes()) == 1

@@ -72,6 +72,7 @@ rule curves:
             "methods"
         ],
         levels=False,
+        families=lambda w: budget_families(config, w.dataset, METHODS),
     script:
         "../scripts/curves.py"
 
@@ -95,6 +96,7 @@ use rule curves as level_curves with:
             "methods"
         ],
         levels=True,
+        families=lambda w: budget_families(config, w.dataset, METHODS),
 
 
 rule summary:

@@ -10,6 +10,7 @@ run_job(
         pdf=snakemake.output.pdf,
         title=snakemake.wildcards.dataset,
         per_level=snakemake.params.levels,
+        families=snakemake.params.families,
     ),
     preload=("matplotlib.pyplot", "spl_al.report"),
 )

@@ -48,14 +48,25 @@ def make_table(
     report.write_table(frame, out_stem, caption=caption)
 
 
-def make_curves(metrics_paths, methods, png, pdf, title: str, per_level: bool = False) -> None:
-    """Budget curves with ±std bands: overall, or one panel per MSPPP level."""
+def make_curves(
+    metrics_paths, methods, png, pdf, title: str, per_level: bool = False, families=None
+) -> None:
+    """Budget curves with ±std bands: overall (one panel per family of the budget
+    experiment when it has a matched family: ``families``, {"paper": [...],
+    "matched": [...]}), or one panel per MSPPP level."""
     from spl_al import report
 
     df = report.load_records(metrics_paths)
     df = df[df["method"].isin(methods)]
-    plot = report.plot_level_curves if per_level else report.plot_curves
-    plot(df, png, pdf, methods=methods, title=title)
+    if per_level:
+        report.plot_level_curves(df, png, pdf, methods=methods, title=title)
+        return
+    panels = None
+    if families and len(families.get("matched", [])) > 1 and len(families.get("paper", [])) > 1:
+        paper = [m for m in methods if m in families["paper"]]
+        matched = [m for m in methods if m in families["matched"]]
+        panels = {"as the paper compares": paper, "matched training": matched}
+    report.plot_curves(df, png, pdf, methods=methods, title=title, panels=panels)
 
 
 def make_summary(metrics_paths, out_path, notes=(), families=None) -> dict:

@@ -130,8 +130,11 @@ def curves_figure(
     level: str | None = None,
     labels: Mapping[str, str] | None = None,
     dataset: str | None = None,
+    panels: Mapping[str, Sequence[str]] | None = None,
 ):
-    """A Figure with one Axes: metric (percent) vs labeling ratio (percent) per method.
+    """A Figure of metric (percent) vs labeling ratio (percent) per method: one Axes, or
+    one per entry of ``panels`` (title -> methods, e.g. the budget experiment's two
+    families) side by side on a shared y axis.
 
     ``level`` ("high" / "medium" / "low") plots that MSPPP level's metric instead of the
     overall one. Lines are drawn in display order with DUIS last. The title says
@@ -141,20 +144,28 @@ def curves_figure(
     if level is not None and level not in LEVELS:
         raise ValueError(f"level must be one of {list(LEVELS)}, got {level!r}.")
     value_col = "value" if level is None else f"level_{level}"
-    order = _draw_order(d, methods)
-    fig = _new_figure(6.4, 4.4)
-    ax = fig.add_subplot()
-    partial = _draw(ax, d, order, value_col, metric_scale, labels or METHOD_LABELS)
+    groups = dict(panels) if panels else {"": _draw_order(d, methods)}
+    fig = _new_figure(6.4 if len(groups) == 1 else 5.2 * len(groups), 4.4)
+    axes = fig.subplots(1, len(groups), sharey=True, squeeze=False)[0]
+    partial = False
+    for ax, (name, members) in zip(axes, groups.items(), strict=True):
+        order = _draw_order(d, members)
+        partial |= _draw(ax, d, order, value_col, metric_scale, labels or METHOD_LABELS)
+        ax.set_xlabel("Labeling ratio (%)")
+        if name:
+            ax.set_title(name, fontsize=10)
+        if ax.get_lines():
+            handles, names = ax.get_legend_handles_labels()
+            ax.legend(*_with_partial_key(handles, names, partial), loc="best", fontsize=8)
+    axes[0].set_ylabel(_metric_axis_label(d, metric_scale))
     what = _metric_axis_label(d, metric_scale).split(" (")[0]
     default = f"{d['dataset'].iloc[0]}: {what} vs labeling ratio"
     if level is not None:
         default += f", {LEVEL_LABELS[level]} MSPPP"
-    ax.set_title(_title(d, title, default), fontsize=11)
-    ax.set_xlabel("Labeling ratio (%)")
-    ax.set_ylabel(_metric_axis_label(d, metric_scale))
-    if ax.get_lines():
-        handles, names = ax.get_legend_handles_labels()
-        ax.legend(*_with_partial_key(handles, names, partial), loc="best", fontsize=8)
+    if len(groups) == 1:
+        axes[0].set_title(_title(d, title, default), fontsize=11)
+    else:
+        fig.suptitle(_title(d, title, default), fontsize=11)
     return fig
 
 
@@ -213,6 +224,7 @@ def plot_curves(
     level: str | None = None,
     labels: Mapping[str, str] | None = None,
     dataset: str | None = None,
+    panels: Mapping[str, Sequence[str]] | None = None,
 ) -> tuple:
     """Write the budget curves (``curves_figure``) to ``path_png`` and ``path_pdf``."""
     fig = curves_figure(
@@ -223,6 +235,7 @@ def plot_curves(
         level=level,
         labels=labels,
         dataset=dataset,
+        panels=panels,
     )
     return save_figure(fig, path_png, path_pdf)
 
