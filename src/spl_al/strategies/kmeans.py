@@ -11,26 +11,11 @@ from __future__ import annotations
 
 import numpy as np
 
+from spl_al.strategies.distances import sq_distances
 from spl_al.strategies.units import check_points
 
 # elements of one (points x centres) distance block (float32: 16 MB)
 _CHUNK_ELEMENTS = 1 << 22
-
-
-def sq_distances(
-    x: np.ndarray, x_sq: np.ndarray, c: np.ndarray, c_sq: np.ndarray | None = None
-) -> np.ndarray:
-    """||x_i - c_j||^2 = |x_i|^2 - 2 x_i . c_j + |c_j|^2, clipped at 0: (len(x), len(c)).
-
-    ``x_sq`` (and optionally ``c_sq``) are the precomputed squared row norms.
-    """
-    if c_sq is None:
-        c_sq = np.einsum("ij,ij->i", c, c)
-    d2 = x @ np.ascontiguousarray(c.T)  # a contiguous right operand is ~2x faster here
-    d2 *= -2.0
-    d2 += x_sq[:, None]
-    d2 += c_sq[None]
-    return np.maximum(d2, 0.0, out=d2)
 
 
 def assign(x: np.ndarray, x_sq: np.ndarray, centres: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

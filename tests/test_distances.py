@@ -1,0 +1,38 @@
+"""Distance-based strategies under a common offset of the features.
+
+Core-set, k-means (DUIS's candidate pool) and BADGE's k-means++ compute squared
+distances as |x|^2 - 2 x.c + |c|^2; on features sharing a large offset that form
+cancels catastrophically in float32 unless the features are centred first. Every
+shift here is exact in float32 (the features are multiples of 2^-8 below 8 in
+magnitude, so x + 1000 is representable), so any change of picks is the algorithm's.
+"""
+
+import numpy as np
+
+from spl_al.strategies.coreset import k_center_greedy
+from spl_al.strategies.distances import centred, row_mean
+
+OFFSET = 1e3
+
+
+def _features(n: int, d: int, seed: int) -> np.ndarray:
+    """(n, d) float32 features like a penultimate layer's, exactly shiftable by OFFSET."""
+    x = np.random.default_rng(seed).normal(size=(n, d)).clip(-7.9, 7.9)
+    x = (np.round(x * 256) / 256).astype(np.float32)
+    assert np.array_equal((x + np.float32(OFFSET)) - np.float32(OFFSET), x)
+    return x
+
+
+def test_centring_leaves_no_trace_of_an_exact_offset():
+    x = _features(500, 64, 7)
+    a = centred(x, row_mean(x[:100], x[100:]))
+    assert a.dtype == np.float32 and a.flags.c_contiguous
+    assert np.allclose(a.mean(axis=0, dtype=np.float64), 0.0, atol=1e-6)
+    assert np.array_equal(centred(x + OFFSET, row_mean(x + OFFSET)), a)
+
+
+def test_coreset_picks_ignore_a_common_offset():
+    x, labeled = _features(2000, 64, 0), _features(300, 64, 1)
+    picks = k_center_greedy(x, labeled, 100, np.random.default_rng(0))
+    shifted = k_center_greedy(x + OFFSET, labeled + OFFSET, 100, np.random.default_rng(0))
+    assert shifted.tolist() == picks.tolist()
