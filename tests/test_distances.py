@@ -11,6 +11,8 @@ import numpy as np
 
 from spl_al.strategies.coreset import k_center_greedy
 from spl_al.strategies.distances import centred, row_mean
+from spl_al.strategies.duis import candidate_pool
+from spl_al.strategies.kmeans import kmeans, kmeans_plusplus
 
 OFFSET = 1e3
 
@@ -21,6 +23,12 @@ def _features(n: int, d: int, seed: int) -> np.ndarray:
     x = (np.round(x * 256) / 256).astype(np.float32)
     assert np.array_equal((x + np.float32(OFFSET)) - np.float32(OFFSET), x)
     return x
+
+
+def _nearest(points: np.ndarray, centres: np.ndarray) -> np.ndarray:
+    """Nearest centre of every point, from float64 differences (no cancellation)."""
+    diff = points.astype(np.float64)[:, None] - centres.astype(np.float64)[None]
+    return np.einsum("ijk,ijk->ij", diff, diff).argmin(axis=1)
 
 
 def test_centring_leaves_no_trace_of_an_exact_offset():
@@ -36,3 +44,25 @@ def test_coreset_picks_ignore_a_common_offset():
     picks = k_center_greedy(x, labeled, 100, np.random.default_rng(0))
     shifted = k_center_greedy(x + OFFSET, labeled + OFFSET, 100, np.random.default_rng(0))
     assert shifted.tolist() == picks.tolist()
+
+
+def test_kmeans_clustering_ignores_a_common_offset():
+    x = _features(2000, 64, 2)
+    seeds = kmeans_plusplus(x, 50, np.random.default_rng(0))
+    seeds_shifted = kmeans_plusplus(x + OFFSET, 50, np.random.default_rng(0))
+    assert np.array_equal(seeds_shifted, seeds + np.float32(OFFSET))  # the same rows
+
+    centres = kmeans(x, 50, np.random.default_rng(0))
+    centres_shifted = kmeans(x + OFFSET, 50, np.random.default_rng(0))
+    # float32 holds a centre near 1000 to 6e-5 only
+    assert np.allclose(centres_shifted - OFFSET, centres, rtol=0, atol=2e-4)
+    labels = _nearest(x, centres)
+    assert np.array_equal(_nearest(x + OFFSET, centres_shifted), labels)
+    assert len(np.unique(labels)) == 50
+
+
+def test_duis_candidate_pool_ignores_a_common_offset():
+    x = _features(2000, 64, 3)
+    pool = candidate_pool(x, 200, np.random.default_rng(0))
+    shifted = candidate_pool(x + OFFSET, 200, np.random.default_rng(0))
+    assert shifted.tolist() == pool.tolist()

@@ -16,8 +16,9 @@ from __future__ import annotations
 import numpy as np
 
 from spl_al.strategies.base import Strategy, register
+from spl_al.strategies.distances import centred, row_mean, sq_distances
 from spl_al.strategies.inputs import StrategyInputs
-from spl_al.strategies.kmeans import kmeans, sq_distances
+from spl_al.strategies.kmeans import kmeans
 from spl_al.strategies.units import check_points, check_probs, top_gap, top_k, unit_mean
 
 # elements of the centres x points distance block computed at once (float32: 32 MB)
@@ -127,13 +128,19 @@ def nearest_unique(points: np.ndarray, centres: np.ndarray) -> np.ndarray:
 
     Centres are served in order of their nearest distance (closest first, stable);
     each takes its nearest point not yet taken. Only each centre's n_centres nearest
-    points are kept (enough, as at most n_centres - 1 are taken before it).
+    points are kept (enough, as at most n_centres - 1 are taken before it). Distances
+    are taken after subtracting the points' mean from both (``spl_al.strategies.distances``).
+
+    Args:
+        points: (n, d); centres: (n_centres, d), n_centres <= n.
     """
     x = check_points(points, "points")
     c = check_points(centres, "centres")
     n, m = len(x), len(c)
     if m > n:
         raise ValueError(f"cannot give {m} centres distinct points out of {n}.")
+    mean = row_mean(x)
+    x, c = centred(x, mean), centred(c, mean)
     x_sq = np.einsum("ij,ij->i", x, x)
     near_idx = np.empty((m, m), dtype=np.int64)
     near_d2 = np.empty((m, m), dtype=np.float32)
@@ -179,8 +186,10 @@ def candidate_pool(
     n = len(x)
     if n_cand >= n:
         return np.arange(n)
-    centres = kmeans(x, n_cand, rng, max_iter=max_iter)
-    return nearest_unique(x, centres)
+    # centres come back as float32 in the coordinates they are given in: near an offset
+    # they would be rounded to its scale, enough to change which point is nearest
+    x = centred(x, row_mean(x))
+    return nearest_unique(x, kmeans(x, n_cand, rng, max_iter=max_iter))
 
 
 @register
