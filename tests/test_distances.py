@@ -9,6 +9,7 @@ magnitude, so x + 1000 is representable), so any change of picks is the algorith
 
 import numpy as np
 
+from spl_al.strategies.badge import gradient_embedding_factors, kmeans_pp_seeding
 from spl_al.strategies.coreset import k_center_greedy
 from spl_al.strategies.distances import centred, row_mean
 from spl_al.strategies.duis import candidate_pool
@@ -66,3 +67,45 @@ def test_duis_candidate_pool_ignores_a_common_offset():
     pool = candidate_pool(x, 200, np.random.default_rng(0))
     shifted = candidate_pool(x + OFFSET, 200, np.random.default_rng(0))
     assert shifted.tolist() == pool.tolist()
+
+
+def test_badge_picks_ignore_a_common_offset_of_dense_embeddings():
+    # "max_norm" starts at the largest norm, which an offset changes; "random" does not
+    emb = _features(2000, 11 * 16, 4)  # a segmentation pool's (groups, C * d) embeddings
+    picks = kmeans_pp_seeding(100, np.random.default_rng(0), embedding=emb, first="random")
+    shifted = kmeans_pp_seeding(
+        100, np.random.default_rng(0), embedding=emb + OFFSET, first="random"
+    )
+    assert shifted.tolist() == picks.tolist()
+
+
+def _kmeans_pp_reference(emb: np.ndarray, k: int, rng: np.random.Generator) -> list[int]:
+    """BADGE's seeding (first at the largest norm) with float64 differences for D^2."""
+    e = emb.astype(np.float64)
+    chosen = np.zeros(len(e), dtype=bool)
+    min_d2 = np.full(len(e), np.inf)
+    picks = []
+    for t in range(k):
+        if t == 0:
+            pick = int(np.argmax(np.einsum("ij,ij->i", e, e)))
+        else:
+            cum = np.cumsum(np.where(chosen, 0.0, min_d2))
+            pick = int(np.searchsorted(cum, rng.random() * cum[-1], side="right"))
+        picks.append(pick)
+        chosen[pick] = True
+        diff = e - e[pick]
+        min_d2 = np.minimum(min_d2, np.einsum("ij,ij->i", diff, diff))
+    return picks
+
+
+def test_badge_factorised_picks_are_exact_on_offset_features():
+    # ReLU features share a large positive offset. Where two images' residuals q agree
+    # (here: 20 predictions, each shared by 100 images), their distance is |q|^2 times
+    # that of their features alone, which the uncentred rank-one form cancels away.
+    rng = np.random.default_rng(5)
+    logits = rng.normal(0, 2, (20, 11))[rng.integers(0, 20, 2000)]
+    probs = np.exp(logits) / np.exp(logits).sum(axis=1, keepdims=True)
+    q, h = gradient_embedding_factors(probs, _features(2000, 64, 6) + OFFSET)
+    dense = (q.astype(np.float64)[:, :, None] * h[:, None, :]).reshape(len(q), -1)
+    picks = kmeans_pp_seeding(100, np.random.default_rng(0), q=q, h=h)
+    assert picks.tolist() == _kmeans_pp_reference(dense, 100, np.random.default_rng(0))
