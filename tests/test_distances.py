@@ -55,8 +55,7 @@ def test_kmeans_clustering_ignores_a_common_offset():
 
     centres = kmeans(x, 50, np.random.default_rng(0))
     centres_shifted = kmeans(x + OFFSET, 50, np.random.default_rng(0))
-    # float32 holds a centre near 1000 to 6e-5 only
-    assert np.allclose(centres_shifted - OFFSET, centres, rtol=0, atol=2e-4)
+    assert np.allclose(centres_shifted - OFFSET, centres, rtol=0, atol=1e-9)
     labels = _nearest(x, centres)
     assert np.array_equal(_nearest(x + OFFSET, centres_shifted), labels)
     assert len(np.unique(labels)) == 50

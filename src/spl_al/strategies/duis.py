@@ -132,15 +132,15 @@ def nearest_unique(points: np.ndarray, centres: np.ndarray) -> np.ndarray:
     are taken after subtracting the points' mean from both (``spl_al.strategies.distances``).
 
     Args:
-        points: (n, d); centres: (n_centres, d), n_centres <= n.
+        points: (n, d); centres: (n_centres, d), n_centres <= n. Centres are centred
+            in their own precision, so float64 centres near an offset keep their digits.
     """
     x = check_points(points, "points")
-    c = check_points(centres, "centres")
-    n, m = len(x), len(c)
+    n, m = len(x), len(check_points(centres, "centres"))
     if m > n:
         raise ValueError(f"cannot give {m} centres distinct points out of {n}.")
     mean = row_mean(x)
-    x, c = centred(x, mean), centred(c, mean)
+    x, c = centred(x, mean), centred(np.asarray(centres), mean)
     x_sq = np.einsum("ij,ij->i", x, x)
     near_idx = np.empty((m, m), dtype=np.int64)
     near_d2 = np.empty((m, m), dtype=np.float32)
@@ -186,9 +186,6 @@ def candidate_pool(
     n = len(x)
     if n_cand >= n:
         return np.arange(n)
-    # centres come back as float32 in the coordinates they are given in: near an offset
-    # they would be rounded to its scale, enough to change which point is nearest
-    x = centred(x, row_mean(x))
     return nearest_unique(x, kmeans(x, n_cand, rng, max_iter=max_iter))
 
 

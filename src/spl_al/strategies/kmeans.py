@@ -94,7 +94,8 @@ def kmeans(
         x: (n, d) points; k: number of clusters, in [1, n].
 
     Returns:
-        (k, d) float32 centres, in the coordinates of ``x``.
+        (k, d) float64 centres in the coordinates of ``x``: float32 would round them to
+        the scale of the features' offset, enough to change which point is nearest.
     """
     x = check_points(x)
     n = len(x)
@@ -122,4 +123,4 @@ def kmeans(
         centres = new
         if shift <= tol_abs:
             break
-    return (centres + mean).astype(np.float32)
+    return centres + mean
