@@ -17,6 +17,7 @@ from __future__ import annotations
 import numpy as np
 
 from spl_al.strategies.base import Strategy, register
+from spl_al.strategies.distances import centred, row_mean
 from spl_al.strategies.inputs import StrategyInputs
 from spl_al.strategies.units import check_probs
 
@@ -72,24 +73,40 @@ def pixel_gradient_embedding(probs, features, valid=None) -> np.ndarray:
 
 
 class _Embedding:
-    """Squared distances to one embedding, from rank-one factors or dense vectors."""
+    """Squared distances to one embedding, from rank-one factors or dense vectors.
+
+    Dense (n, D) embeddings e: ||e_i - e_j||^2 = |e_i|^2 + |e_j|^2 - 2 e_i . e_j on
+    e - mean(e) (``spl_al.strategies.distances``). Rank-one factors q (n, C), h (n, d):
+
+        ||g_i - g_j||^2 = |q_i|^2 |h_i|^2 + |q_j|^2 |h_j|^2 - 2 (q_i . q_j)(h_i . h_j),
+        h_i . h_j = |c|^2 + r_i . c + r_j . c + r_i . r_j,   c = mean(h), r = h - c,
+
+    with |h_i|^2 = h_i . h_i from the same terms. The products r_i . r_j and r_i . c
+    of centred features are float32; the sums are float64, whose 16 digits hold what
+    they cancel when the features share an offset c (float32's 7 do not).
+    """
 
     def __init__(self, q=None, h=None, dense=None) -> None:
         if dense is not None:
-            self.e = np.asarray(dense, dtype=np.float32)
+            e = np.asarray(dense, dtype=np.float32)
+            self.norm_sq = np.einsum("ij,ij->i", e, e, dtype=np.float64)  # the first centre
+            self.e = centred(e, row_mean(e))
             self.sq = np.einsum("ij,ij->i", self.e, self.e, dtype=np.float64)
-            self.q = self.h = None
+            self.q = self.r = None
         else:
             self.q = np.asarray(q, dtype=np.float64)
-            self.h = np.asarray(h, dtype=np.float32)
-            if self.q.ndim != 2 or self.h.ndim != 2 or len(self.q) != len(self.h):
+            h = np.asarray(h, dtype=np.float32)
+            if self.q.ndim != 2 or h.ndim != 2 or len(self.q) != len(h):
                 raise ValueError(
-                    f"grad_q and grad_h must be (n, C) and (n, d), "
-                    f"got {self.q.shape}, {self.h.shape}."
+                    f"grad_q and grad_h must be (n, C) and (n, d), got {self.q.shape}, {h.shape}."
                 )
-            self.sq = np.einsum("ij,ij->i", self.q, self.q) * np.einsum(
-                "ij,ij->i", self.h, self.h, dtype=np.float64
-            )
+            c = row_mean(h)
+            self.r = centred(h, c)
+            self.c_sq = float(c @ c)
+            self.r_c = (self.r @ c.astype(np.float32)).astype(np.float64)
+            h_sq = np.einsum("ij,ij->i", self.r, self.r, dtype=np.float64)
+            h_sq += 2.0 * self.r_c + self.c_sq
+            self.norm_sq = self.sq = np.einsum("ij,ij->i", self.q, self.q) * h_sq
             self.e = None
         self.n = len(self.sq)
 
@@ -97,7 +114,9 @@ class _Embedding:
         if self.e is not None:
             dot = (self.e @ self.e[j]).astype(np.float64)
         else:
-            dot = (self.q @ self.q[j]) * (self.h @ self.h[j]).astype(np.float64)
+            h_dot = (self.r @ self.r[j]).astype(np.float64)
+            h_dot += self.r_c + (self.r_c[j] + self.c_sq)
+            dot = (self.q @ self.q[j]) * h_dot
         return np.maximum(self.sq + self.sq[j] - 2.0 * dot, 0.0)
 
 
@@ -135,7 +154,7 @@ def kmeans_pp_seeding(
             if first == "random":
                 pick = rng.integers(n)
             else:
-                best = np.flatnonzero(emb.sq == emb.sq.max())
+                best = np.flatnonzero(emb.norm_sq == emb.norm_sq.max())
                 pick = best[0] if len(best) == 1 else rng.choice(best)
         else:
             weight = np.where(chosen, 0.0, min_d2)

@@ -5,16 +5,11 @@ from __future__ import annotations
 import numpy as np
 
 from spl_al.strategies.base import Strategy, register
+from spl_al.strategies.distances import centred, row_mean, sq_distances
 from spl_al.strategies.inputs import StrategyInputs
 
 # rows of the labeled block per distance chunk: chunk memory ~ n_unlabeled * this * 4 bytes
 _CHUNK_ELEMENTS = 1 << 23
-
-
-def _sq_dist_to(x: np.ndarray, sq_norms: np.ndarray, centres: np.ndarray) -> np.ndarray:
-    """||x_i - c_j||^2 for every row of x and of centres, (n, m), clipped at 0."""
-    d2 = sq_norms[:, None] - 2.0 * (x @ centres.T) + np.einsum("ij,ij->i", centres, centres)[None]
-    return np.maximum(d2, 0.0)
 
 
 def k_center_greedy(features, labeled_features, k: int, rng: np.random.Generator) -> np.ndarray:
@@ -23,7 +18,9 @@ def k_center_greedy(features, labeled_features, k: int, rng: np.random.Generator
     Centres start as the labeled set; each pick is ``argmax_i min_j ||x_i - c_j||``
     over the unlabeled points, after which it becomes a centre. Only the vector of
     minimum squared distances (n,) is kept and updated with one (n, d) pass per pick:
-    O(n d) memory and O((m + k) n d) time, never an n x n matrix.
+    O(n d) memory and O((m + k) n d) time, never an n x n matrix. Distances are
+    |x_i|^2 - 2 x_i . c_j + |c_j|^2 after subtracting the mean of all n + m rows
+    (``spl_al.strategies.distances``).
 
     Args:
         features: (n, d) unlabeled features.
@@ -41,17 +38,19 @@ def k_center_greedy(features, labeled_features, k: int, rng: np.random.Generator
     n = len(x)
     if not 0 <= k <= n:
         raise ValueError(f"k must be in [0, {n}], got {k}.")
+    mean = row_mean(x, lab)
+    x, lab = centred(x, mean), centred(lab, mean)
     sq = np.einsum("ij,ij->i", x, x)
     min_d2 = np.full(n, np.inf, dtype=np.float32)
     chunk = max(1, _CHUNK_ELEMENTS // max(n, 1))
     for start in range(0, len(lab), chunk):
-        min_d2 = np.minimum(min_d2, _sq_dist_to(x, sq, lab[start : start + chunk]).min(axis=1))
+        min_d2 = np.minimum(min_d2, sq_distances(x, sq, lab[start : start + chunk]).min(axis=1))
     picks = np.empty(k, dtype=np.int64)
     for t in range(k):
         best = np.flatnonzero(min_d2 == min_d2.max())
         pick = best[0] if len(best) == 1 else rng.choice(best)
         picks[t] = pick
-        min_d2 = np.minimum(min_d2, _sq_dist_to(x, sq, x[pick : pick + 1])[:, 0])
+        min_d2 = np.minimum(min_d2, sq_distances(x, sq, x[pick : pick + 1])[:, 0])
         min_d2[pick] = -np.inf  # chosen: never again
     return picks
 

@@ -18,8 +18,9 @@ from __future__ import annotations
 import numpy as np
 
 from spl_al.strategies.base import Strategy, register
+from spl_al.strategies.distances import centred, row_mean, sq_distances
 from spl_al.strategies.inputs import StrategyInputs
-from spl_al.strategies.kmeans import kmeans, sq_distances
+from spl_al.strategies.kmeans import kmeans
 from spl_al.strategies.units import check_points, check_probs, top_gap, top_k, unit_mean
 
 # elements of the centres x points distance block computed at once (float32: 32 MB)
@@ -174,13 +175,19 @@ def nearest_unique(points: np.ndarray, centres: np.ndarray) -> np.ndarray:
 
     Centres are served in order of their nearest distance (closest first, stable);
     each takes its nearest point not yet taken. Only each centre's n_centres nearest
-    points are kept (enough, as at most n_centres - 1 are taken before it).
+    points are kept (enough, as at most n_centres - 1 are taken before it). Distances
+    are taken after subtracting the points' mean from both (``spl_al.strategies.distances``).
+
+    Args:
+        points: (n, d); centres: (n_centres, d), n_centres <= n. Centres are centred
+            in their own precision, so float64 centres near an offset keep their digits.
     """
     x = check_points(points, "points")
-    c = check_points(centres, "centres")
-    n, m = len(x), len(c)
+    n, m = len(x), len(check_points(centres, "centres"))
     if m > n:
         raise ValueError(f"cannot give {m} centres distinct points out of {n}.")
+    mean = row_mean(x)
+    x, c = centred(x, mean), centred(np.asarray(centres), mean)
     x_sq = np.einsum("ij,ij->i", x, x)
     near_idx = np.empty((m, m), dtype=np.int64)
     near_d2 = np.empty((m, m), dtype=np.float32)
@@ -226,8 +233,7 @@ def candidate_pool(
     n = len(x)
     if n_cand >= n:
         return np.arange(n)
-    centres = kmeans(x, n_cand, rng, max_iter=max_iter)
-    return nearest_unique(x, centres)
+    return nearest_unique(x, kmeans(x, n_cand, rng, max_iter=max_iter))
 
 
 @register

@@ -4,37 +4,32 @@ Used by DUIS for its candidate pool. Written here rather than taken from
 scikit-learn because sklearn's seeding upcasts float32 distances to float64 chunk
 by chunk, which made a 20,000 x 512 pool with 500 clusters take ~8 s to seed on
 two cores (this takes ~2 s), and because a selection step then imports numpy only.
-Memory stays O((n + k) d + chunk), never n x k at once for large pools.
+Memory stays O((n + k) d + chunk), never n x k at once for large pools. Both
+centre the points first (``spl_al.strategies.distances``): the distances cancel on
+features with a common offset otherwise.
 """
 
 from __future__ import annotations
 
 import numpy as np
 
+from spl_al.strategies.distances import centred, row_mean, sq_distances
 from spl_al.strategies.units import check_points
 
 # elements of one (points x centres) distance block (float32: 16 MB)
 _CHUNK_ELEMENTS = 1 << 22
 
 
-def sq_distances(
-    x: np.ndarray, x_sq: np.ndarray, c: np.ndarray, c_sq: np.ndarray | None = None
-) -> np.ndarray:
-    """||x_i - c_j||^2 = |x_i|^2 - 2 x_i . c_j + |c_j|^2, clipped at 0: (len(x), len(c)).
-
-    ``x_sq`` (and optionally ``c_sq``) are the precomputed squared row norms.
-    """
-    if c_sq is None:
-        c_sq = np.einsum("ij,ij->i", c, c)
-    d2 = x @ np.ascontiguousarray(c.T)  # a contiguous right operand is ~2x faster here
-    d2 *= -2.0
-    d2 += x_sq[:, None]
-    d2 += c_sq[None]
-    return np.maximum(d2, 0.0, out=d2)
-
-
 def assign(x: np.ndarray, x_sq: np.ndarray, centres: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Nearest centre of every point and its squared distance, in row chunks."""
+    """Nearest centre of every point and its squared distance, in row chunks.
+
+    Args:
+        x: (n, d) float32 points and centres: (k, d), both centred by the same mean
+            (``sq_distances``); x_sq: (n,) squared row norms of x.
+
+    Returns:
+        labels (n,) int64 and squared distances (n,) float32.
+    """
     n = len(x)
     labels = np.empty(n, dtype=np.int64)
     best = np.empty(n, dtype=np.float32)
@@ -46,20 +41,12 @@ def assign(x: np.ndarray, x_sq: np.ndarray, centres: np.ndarray) -> tuple[np.nda
     return labels, best
 
 
-def kmeans_plusplus(x: np.ndarray, k: int, rng: np.random.Generator) -> np.ndarray:
-    """Greedy k-means++ seeding (Arthur & Vassilvitskii 2007, with 2 + ln k local trials).
-
-    The first centre is uniform; each next one is the best (lowest total potential)
-    of 2 + ln k candidates drawn with probability proportional to D^2, the squared
-    distance to the nearest chosen centre. Returns (k, d) centres.
-    """
-    x = check_points(x)
+def _plusplus_rows(x: np.ndarray, x_sq: np.ndarray, k: int, rng: np.random.Generator) -> np.ndarray:
+    """Rows of the centred (n, d) ``x`` that greedy k-means++ picks: (k,) int64."""
     n = len(x)
-    x_sq = np.einsum("ij,ij->i", x, x)
     trials = 2 + int(np.log(k))
-    centres = np.empty((k, x.shape[1]), dtype=np.float32)
-    first = rng.integers(n)
-    centres[0] = x[first]
+    rows = np.empty(k, dtype=np.int64)
+    rows[0] = first = rng.integers(n)
     closest = sq_distances(x, x_sq, x[first : first + 1])[:, 0]
     for c in range(1, k):
         cum = np.cumsum(closest, dtype=np.float64)
@@ -72,25 +59,52 @@ def kmeans_plusplus(x: np.ndarray, k: int, rng: np.random.Generator) -> np.ndarr
         new_closest = np.minimum(closest[None], sq_distances(x, x_sq, x[cand], x_sq[cand]).T)
         best = int(np.argmin(new_closest.sum(axis=1, dtype=np.float64)))
         closest = new_closest[best]
-        centres[c] = x[cand[best]]
-    return centres
+        rows[c] = cand[best]
+    return rows
+
+
+def kmeans_plusplus(x, k: int, rng: np.random.Generator) -> np.ndarray:
+    """Greedy k-means++ seeding (Arthur & Vassilvitskii 2007, with 2 + ln k local trials).
+
+    The first centre is uniform; each next one is the best (lowest total potential)
+    of 2 + ln k candidates drawn with probability proportional to D^2, the squared
+    distance to the nearest chosen centre, computed on the centred points.
+
+    Args:
+        x: (n, d) points; k: number of centres, in [1, n].
+
+    Returns:
+        (k, d) float32 centres, rows of ``x``.
+    """
+    x = check_points(x)
+    xc = centred(x, row_mean(x))
+    return x[_plusplus_rows(xc, np.einsum("ij,ij->i", xc, xc), k, rng)]
 
 
 def kmeans(
     x, k: int, rng: np.random.Generator, max_iter: int = 100, tol: float = 1e-4
 ) -> np.ndarray:
-    """Lloyd's k-means from a k-means++ seeding; returns the (k, d) float32 centres.
+    """Lloyd's k-means from a k-means++ seeding, on the points less their mean.
 
     Stops when the total squared centre shift falls below ``tol`` times the mean
     per-feature variance (scikit-learn's rule) or after ``max_iter`` iterations. An
     empty cluster is re-seeded at the point farthest from its current centre.
+
+    Args:
+        x: (n, d) points; k: number of clusters, in [1, n].
+
+    Returns:
+        (k, d) float64 centres in the coordinates of ``x``: float32 would round them to
+        the scale of the features' offset, enough to change which point is nearest.
     """
     x = check_points(x)
     n = len(x)
     if not 1 <= k <= n:
         raise ValueError(f"k must be in [1, {n}] clusters, got {k}.")
+    mean = row_mean(x)
+    x = centred(x, mean)
     x_sq = np.einsum("ij,ij->i", x, x)
-    centres = kmeans_plusplus(x, k, rng)
+    centres = x[_plusplus_rows(x, x_sq, k, rng)]
     tol_abs = tol * float(np.mean(np.var(x, axis=0, dtype=np.float64)))
     for _ in range(max_iter):
         labels, d2 = assign(x, x_sq, centres)
@@ -109,4 +123,4 @@ def kmeans(
         centres = new
         if shift <= tol_abs:
             break
-    return centres
+    return centres + mean
