@@ -245,3 +245,14 @@ def test_predict_bad_input_is_one_sentence_and_writes_nothing(
     assert cli(["predict", str(tmp_path / "none.pt"), str(broken), "--out", str(out)]) == 2
     assert cli(["export", str(rounds["classification"]), "/proc/x/y.onnx"]) == 2
     assert not out.exists()
+
+
+def test_inference_bench_times_torch_and_onnxruntime():
+    from spl_al.bench.inference import bench_one
+
+    result = bench_one("classification", {"arch": "smallcnn"}, (16, 16), 3, 1, 4, 3)
+    assert set(result) == {"torch", "onnxruntime"}
+    for latency_s, fps in result.values():
+        assert latency_s > 0 and fps > 0
+    pc = {"arch": "pointnet2", "n_points": 16, "centres": [4], "radii_m": [4], "neighbours": 4}
+    assert set(bench_one("segmentation", {**pc, "width": 4}, (8, 16), 7, 1, 2, 3)) == {"torch"}
