@@ -256,3 +256,24 @@ def test_inference_bench_times_torch_and_onnxruntime():
         assert latency_s > 0 and fps > 0
     pc = {"arch": "pointnet2", "n_points": 16, "centres": [4], "radii_m": [4], "neighbours": 4}
     assert set(bench_one("segmentation", {**pc, "width": 4}, (8, 16), 7, 1, 2, 3)) == {"torch"}
+
+
+def test_predict_on_a_real_capture(rounds, ugv45m_dir, tmp_path):
+    """Opt-in ($SPL_AL_REAL_CAPTURES): a real ugv45m frame through predict, its
+    conditions estimated from its photons and its other shape flagged."""
+    out = tmp_path / "real"
+    assert (
+        cli(
+            [
+                "predict",
+                str(rounds["classification"]),
+                str(ugv45m_dir / "car_20.mat"),
+                "--out",
+                str(out),
+            ]
+        )
+        == 0
+    )
+    (row,) = _rows(out / "predictions.csv")
+    assert float(row["msppp"]) > 0 and float(row["sbr"]) > 0
+    assert "not the trained 32x32" in row["warning"]
