@@ -30,6 +30,7 @@ include: "workflow/rules/al.smk"
 include: "workflow/rules/human.smk"
 include: "workflow/rules/report.smk"
 include: "workflow/rules/robustness.smk"
+include: "workflow/rules/deploy.smk"
 include: "workflow/rules/warm.smk"
 
 

@@ -208,6 +208,46 @@ def test_every_method_trains_the_same_steps_at_every_dataset_seed_and_round(ci_r
     assert fits and all(f["train_steps"] >= 1 and f["images_seen"] >= 1 for f in fits)
 
 
+def test_final_models_export_to_onnx_with_cards(ci_results, tmp_path):
+    """The final DUIS models of real_cls (SmallCNN) and street_seg (U-Net) are exported,
+    onnxruntime matching torch on the test split; every budget method's final model.pt
+    has its card, which names the per-level metric; PointNet++ (street_pc) is not
+    exported; predict runs the exported classifier on release-layout frames."""
+    for dataset, metric in (("real_cls", "accuracy"), ("street_seg", "miou")):
+        for seed in (1, 2):
+            folder = ci_results / dataset / "models" / "duis" / f"seed{seed}"
+            card = json.loads((folder / "final.card.json").read_text())
+            check = card["onnx"]["check"]
+            assert check["max_abs_logit_diff"] <= 1e-3 and check["argmax_agreement"] >= 0.999
+            assert card["run"]["round"] == 1 and card["test"]["metric"] == metric
+            assert set(card["test"]["per_level"]) == {"high", "medium", "low"}
+            assert "per MSPPP level" in card["test"]["per_level_metric"]
+            assert (folder / "final.onnx").stat().st_size > 1000
+            assert "MSPPP low" in (folder / "final.card.md").read_text()
+    seg_card = json.loads((ci_results / "street_seg/duis/seed1/round1/model.card.json").read_text())
+    assert seg_card["robustness"]["cells"]  # the map ran for street_seg's final models
+    assert (ci_results / "real_cls/syn_random/seed2/round1/model.card.md").is_file()
+    assert not (ci_results / "street_pc" / "models").exists()
+    assert (ci_results / "street_pc/duis/seed1/round1/model.card.json").is_file()
+
+    import numpy as np
+
+    from spl_al.__main__ import main as cli
+    from spl_al.data import Dataset
+
+    data = Dataset.load(ci_results / "real_cls/data/dataset.npz")
+    frames = tmp_path / "frames"
+    frames.mkdir()
+    for i in data.test_idx[:3]:
+        depth = np.nan_to_num(data.depth_m[i], nan=0.0)
+        np.savez(frames / f"f{i}.npz", depth_ssp=depth, msppp=data.msppp[i], sbr=data.sbr[i])
+    model = ci_results / "real_cls/models/duis/seed1/final.onnx"
+    assert cli(["predict", str(model), str(frames), "--out", str(tmp_path / "out")]) == 0
+    rows = pd.read_csv(tmp_path / "out" / "predictions.csv")
+    assert len(rows) == 3 and set(rows["class"]) <= set(data.classes)
+    assert rows["msppp"].notna().all()
+
+
 def test_killed_run_resumes_to_identical_tables_and_labeled_sets(ci_results, tmp_path):
     """A second run of the same config (street_seg), SIGKILLed mid-way and restarted,
     ends with the same labeled sets and tables as the uninterrupted run."""

@@ -34,6 +34,23 @@ def _as_tensor(a, dtype) -> torch.Tensor:
     return torch.from_numpy(np.ascontiguousarray(a)).to(dtype)
 
 
+def _nanmedian(flat: torch.Tensor) -> torch.Tensor:
+    """(B, N) -> (B,): the lower median of each row's non-NaN values (NaN for none).
+
+    ``torch.nanmedian`` has no ONNX counterpart, so while ``torch.onnx.export`` traces
+    the same median is taken by sorting (NaN as +inf, last) and picking entry
+    (n - 1) // 2 of the n non-NaN values: the same selection, the same values.
+    """
+    if not torch.onnx.is_in_onnx_export():
+        return flat.nanmedian(dim=1).values
+    missing = torch.isnan(flat)
+    ordered = torch.sort(torch.where(missing, torch.inf, flat), dim=1).values
+    n = (~missing).sum(dim=1, keepdim=True)
+    middle = torch.div(n - 1, 2, rounding_mode="floor").clamp_min(0)
+    median = ordered.gather(1, middle)[:, 0]
+    return torch.where(n[:, 0] > 0, median, torch.nan)
+
+
 def to_input(depth_m, valid=None) -> torch.Tensor:
     """Network input from depth images: normalised depth and a validity channel.
 
@@ -66,8 +83,8 @@ def to_input(depth_m, valid=None) -> torch.Tensor:
     flat = torch.where(ok, depth, torch.nan).reshape(b, -1)
     if flat.shape[1] == 0:
         return torch.zeros((b, 2, *depth.shape[1:]), dtype=torch.float32, device=depth.device)
-    centre = flat.nanmedian(dim=1).values  # NaN where an image has no valid pixel
-    mad = (flat - centre[:, None]).abs().nanmedian(dim=1).values
+    centre = _nanmedian(flat)  # NaN where an image has no valid pixel
+    mad = _nanmedian((flat - centre[:, None]).abs())
     scale = torch.maximum(MAD_TO_STD * mad, REL_FLOOR * centre.abs()).clamp_min(ABS_FLOOR_M)
     centre = torch.nan_to_num(centre, nan=0.0)
     scale = torch.nan_to_num(scale, nan=1.0)
