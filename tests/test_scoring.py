@@ -111,7 +111,7 @@ def test_segmentation_inputs_are_per_group_and_average_observed_valid_pixels():
     assert np.allclose(inputs.grad_embedding, emb, atol=1e-5)
     for name in strategies.names():
         picks = (
-            strategies.get(name, n_cand=3)
+            strategies.get(name, n_cand=2)
             if name in ("duis", "diversity")
             else strategies.get(name)
         )
