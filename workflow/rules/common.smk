@@ -3,7 +3,7 @@ import shlex
 from pathlib import Path
 
 from snakemake.logging import logger
-from snakemake.settings.types import DeploymentMethod
+from snakemake.settings.types import DeploymentMethod, ExecMode
 
 from spl_al.config import (
     dataset_precision,
@@ -15,6 +15,7 @@ from spl_al.data.captures import CaptureOptions, capture_files, shard_count, sha
 from spl_al.data.external import folder_has_levels
 from spl_al.labeling import lists_training_rows
 from spl_al.experiment.warm import Server
+from spl_al.experiment.overview import estimate_minutes, jobs_line, plan_text
 from spl_al.experiment.plan import (
     batch_of,
     budget_families,
@@ -93,6 +94,23 @@ try:
     }
 except ValueError as err:
     sys.exit(f"Error: {err}")
+
+# The plan, once per run (not in each cluster job); `jobs_line` follows it once the
+# jobs are known (onstart). `snakemake -n` prints it without running anything.
+if workflow.exec_mode == ExecMode.DEFAULT:
+    logger.info(plan_text(config, INHERITED))
+
+
+def print_jobs_line():
+    """The plan's last line, once the jobs are known (onstart of a local run)."""
+    try:
+        at_once = int(workflow.cores)
+    except Exception:  # a run without --cores (a cluster): one estimate per job
+        at_once = 1
+    jobs = len(workflow.dag)
+    logger.info(
+        jobs_line(jobs, RESULTS, estimate_minutes(config, at_once) if jobs else None)
+    )
 
 
 def real_capture_files():
