@@ -13,6 +13,7 @@ from spl_al.config import (
 )
 from spl_al.data.captures import CaptureOptions, capture_files, shard_count, shard_of
 from spl_al.data.external import folder_has_levels
+from spl_al.photon.io import CAPTURE_SUFFIXES
 from spl_al.labeling import lists_training_rows
 from spl_al.experiment.warm import Server
 from spl_al.experiment.overview import estimate_minutes, jobs_line, plan_text
@@ -125,6 +126,17 @@ def real_capture_files():
         for p in REAL_CAPTURES.iterdir()
         if p.is_file() and p.suffix.lower() in (".mat", ".ptu")
     )
+    # Nothing skipped without a word: every other file is named once, with why.
+    for p in sorted(REAL_CAPTURES.iterdir()):
+        if not p.is_file() or p.name.startswith(".") or p in files:
+            continue
+        why = (
+            "a cube states no timing: picture it with `python -m spl_al.photon "
+            "reconstruct` and its options (docs/real-data.md)"
+            if p.suffix.lower() in CAPTURE_SUFFIXES
+            else f"not a capture format ({', '.join(CAPTURE_SUFFIXES)})"
+        )
+        logger.info(f"real captures: {p.name} is not pictured; {why}.")
     stems = [p.stem for p in files]
     twins = sorted({s for s in stems if stems.count(s) > 1})
     if twins:
@@ -174,12 +186,21 @@ def runs(dataset):
     return dataset_runs(config, dataset)
 
 
-def metrics_files(dataset):
+def metrics_files(dataset, methods=None):
+    """Every round's metrics of the dataset's runs (of ``methods`` only, when given)."""
     return [
         f"{RESULTS}/{dataset}/{method}/seed{seed}/round{r}/metrics.json"
         for (method, seed), rounds in sorted(runs(dataset).items())
+        if methods is None or method in methods
         for r in range(rounds)
     ]
+
+
+def budget_metrics_files(dataset):
+    """The metrics the budget curves read: every run of the budget experiment's
+    methods, not the sensitivity sweeps' (the curves plot those methods alone)."""
+    budget = experiments_of(config, dataset, METHODS).get("budget") or {}
+    return metrics_files(dataset, set(budget.get("methods", [])))
 
 
 def round_file(wildcards, r, name):
