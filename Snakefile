@@ -1,22 +1,28 @@
 # spl-al: condition-aware active learning for single-photon LiDAR.
 # Rules live in workflow/rules/ (data, al, report), numerics in the spl_al library.
+import copy
 import sys
 
 from snakemake.utils import min_version
 
-from spl_al.config import check_config, drop_removed
+from spl_al.config import check_config, drop_removed, select_datasets
 
 min_version("9.0")
+
+# What --configfile and --config gave, before the defaults are merged under it.
+OVERRIDES = copy.deepcopy(config)
 
 
 # config/config.yaml holds every default; --configfile FILE and --config KEY=VALUE
 # are merged on top of it by Snakemake (nested keys one by one, lists replaced whole).
 # A key set to null in an override is removed (e.g. `datasets: {synth_cls: null}`).
+# `only_datasets: [NAME, ...]` runs exactly those datasets (docs/configuration.md).
 configfile: "config/config.yaml"
 
 
 drop_removed(config)
 try:
+    INHERITED = select_datasets(config, OVERRIDES)
     check_config(config, "config/schema.yaml")
 except ValueError as err:
     sys.exit(f"Error: {err}")

@@ -1,3 +1,4 @@
+#!/usr/bin/env python3
 """Two human-labeled rounds through a real Label Studio, start to finish.
 
     python scripts/label-studio-roundtrip.py --label-studio /opt/lsvenv/bin/label-studio

@@ -10,6 +10,7 @@ import pytest
 import yaml
 
 import spl_al.bench
+import spl_al.bench.__main__ as bench_main
 from spl_al.bench import learnability, spread
 from spl_al.data import Dataset, make_classification_dataset
 from spl_al.variants import make_variants
@@ -211,3 +212,19 @@ def test_estimate_counts_what_the_plan_runs(tmp_path):
     scored = (n_pool - 10) + (n_pool - 15)  # the pool before the queries of rounds 1, 2
     # random and syn_random score the observed image, DUIS all 5 images of a group
     assert counts["forward_images"] == counts["trainings"] * n_test + 2 * (2 + 5) * scored
+
+
+@pytest.mark.parametrize("name", bench_main.available())
+def test_every_bench_answers_help(name, capsys):
+    """`python -m spl_al.bench NAME --help` prints a usage line and exits 0 for every
+    benchmark the dispatcher lists (docs/benchmarks.md shows their commands)."""
+    with pytest.raises(SystemExit) as stop:
+        bench_main.main([name, "--help"])
+    assert stop.value.code == 0
+    assert "usage:" in capsys.readouterr().out
+
+
+def test_a_helper_module_is_no_bench(capsys):
+    assert "timing" not in bench_main.available()
+    assert bench_main.main(["timing", "--help"]) == 2
+    assert "unknown benchmark 'timing'" in capsys.readouterr().err

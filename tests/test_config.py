@@ -8,10 +8,12 @@ import pytest
 import yaml
 from snakemake.utils import update_config
 
-from spl_al.config import check_config, drop_removed, real_captures_dir
+from spl_al.config import check_config, drop_removed, real_captures_dir, select_datasets
 from spl_al.experiment.plan import check_plan
 from spl_al.models import build_model
 from spl_al.training import TrainConfig
+
+ROOT = Path(__file__).resolve().parents[1]
 
 
 def test_null_removes_a_key_at_any_depth():
@@ -180,3 +182,98 @@ def test_training_notes_name_steps_that_scale_with_images():
     config["datasets"]["street_seg"]["train"]["fit"]["steps_by"] = "scans"
     with pytest.raises(ValueError, match=r"'datasets.street_seg.train.fit.steps_by'"):
         check_config(config, Path(__file__).resolve().parents[1] / "config" / "schema.yaml")
+
+
+# ---------------------------------------------------------------- only_datasets
+
+
+def merged(*overrides: dict) -> tuple[dict, dict]:
+    """(config/config.yaml with ``overrides`` merged as Snakemake does, the overrides
+    alone), null keys removed from the first."""
+    import copy
+
+    user: dict = {}
+    for over in overrides:
+        update_config(user, copy.deepcopy(over))
+    config = yaml.safe_load((ROOT / "config" / "config.yaml").read_text())
+    update_config(config, copy.deepcopy(user))
+    return drop_removed(config), user
+
+
+FRAMES = {
+    "task": "classification",
+    "source": "synthetic",
+    "variants": {"n": 2, "shards": 1, "seed": 0},
+    "al": {"initial": 10, "batch": 10},
+    "train": {"model": {"arch": "smallcnn"}, "fit": {"epochs": 1}},
+    "experiments": {"budget": {"methods": ["duis"], "seeds": [1], "rounds": 2}},
+}
+
+
+def test_only_datasets_keeps_exactly_the_named_ones_and_inherits_nothing_new():
+    config, user = merged({"only_datasets": ["frames"], "datasets": {"frames": FRAMES}})
+    assert select_datasets(config, user) == {}
+    assert list(config["datasets"]) == ["frames"]
+    assert config["datasets"]["frames"] == FRAMES
+    check_config(config, ROOT / "config" / "schema.yaml")
+
+
+def test_without_only_datasets_every_default_dataset_stays():
+    config, user = merged({"datasets": {"real_cls": {"al": {"batch": 7}}}})
+    defaults = yaml.safe_load((ROOT / "config" / "config.yaml").read_text())["datasets"]
+    assert select_datasets(config, user) == {}
+    assert list(config["datasets"]) == list(defaults)
+
+
+def test_a_reused_default_name_lists_every_key_it_inherited():
+    over = {"only_datasets": ["real_cls"], "datasets": {"real_cls": {"path": "/data/x"}}}
+    config, user = merged(over)
+    inherited = select_datasets(config, user)
+    assert list(config["datasets"]) == ["real_cls"]
+    assert inherited["real_cls"]["synthesis.image_shape"] == [64, 64]
+    assert "path" not in inherited["real_cls"]
+    # every key of the entry is either the user's or listed
+    given = {"path"}
+    from spl_al.config import _leaves
+
+    assert set(_leaves(config["datasets"]["real_cls"])) == given | set(inherited["real_cls"])
+
+
+@pytest.mark.parametrize(
+    "over, message",
+    [
+        ({"only_datasets": []}, r"config key 'only_datasets' is empty"),
+        ({"only_datasets": ["frmes"]}, r"config key 'only_datasets' names 'frmes'.*expected one"),
+        ({"only_datasets": "real_cls"}, r"config key 'only_datasets' is 'real_cls'; expected a"),
+        (
+            {"only_datasets": ["mine"], "datasets": {"mine": {"task": "classification"}}},
+            r"config key 'datasets.mine.source' is missing; expected one of synthetic",
+        ),
+        (
+            {d: None for d in ["real_cls", "synth_cls", "street_seg", "street_pc"]},
+            r"config key 'datasets' holds no dataset",
+        ),
+    ],
+)
+def test_a_bad_selection_is_one_sentence_naming_the_key(over, message):
+    if "only_datasets" not in over and "datasets" not in over:
+        over = {"datasets": over}
+    config, user = merged(over)
+    with pytest.raises(ValueError, match=message) as err:
+        select_datasets(config, user)
+    assert "\n" not in str(err.value) and str(err.value).endswith(".")
+
+
+def test_the_plan_names_source_shape_methods_seeds_rounds_and_budgets():
+    from spl_al.experiment.overview import jobs_line, plan_text
+
+    config, user = merged({"only_datasets": ["frames"], "datasets": {"frames": FRAMES}})
+    select_datasets(config, user)
+    text = plan_text(config)
+    assert "results in results/" in text
+    assert "frames: classification, source synthetic, 64x64 images" in text
+    assert "budget: methods duis; seeds 1; 2 rounds at 10, 20 labeled groups" in text
+    assert jobs_line(12, "results") == "Plan: 12 jobs to run; results in results/"
+    config, user = merged({"only_datasets": ["real_cls"]})
+    inherited = select_datasets(config, user)
+    assert "synthesis.image_shape=[64, 64]" in plan_text(config, inherited)

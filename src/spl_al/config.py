@@ -4,6 +4,8 @@ folders that come from the environment.
 Snakemake builds the configuration: ``config/config.yaml`` (the Snakefile's
 ``configfile:``) is the base, then every ``--configfile`` and ``--config`` is merged
 on top of it, nested mappings key by key (lists and values are replaced whole).
+A config that sets ``only_datasets`` runs exactly the datasets it lists
+(``select_datasets``), whatever datasets config/config.yaml holds.
 """
 
 from __future__ import annotations
@@ -29,6 +31,82 @@ def drop_removed(config: dict) -> dict:
         if isinstance(value, dict):
             drop_removed(value)
     return config
+
+
+ONLY_DATASETS = "only_datasets"
+SOURCES = ("synthetic", "folder", "unlabeled", "captures")
+
+
+def _leaves(entry: dict, prefix: str = "") -> dict:
+    """``{dotted key: value}`` of every value below ``entry`` that is not a mapping."""
+    out = {}
+    for key, value in entry.items():
+        if isinstance(value, dict) and value:
+            out.update(_leaves(value, f"{prefix}{key}."))
+        else:
+            out[f"{prefix}{key}"] = value
+    return out
+
+
+def select_datasets(config: dict, user: dict) -> dict[str, dict]:
+    """Keep only the datasets ``only_datasets`` lists, in place; check every dataset.
+
+    ``config`` is the merged configuration (null keys removed), ``user`` what the
+    override files and ``--config`` gave alone, before config/config.yaml was merged
+    under them. Without ``only_datasets`` every dataset is kept, as merged. Returns,
+    for each kept dataset whose entry took keys the overrides did not give (it reuses
+    a name of config/config.yaml), ``{dotted key: value}`` of those inherited keys.
+    Raises ValueError naming the key: ``only_datasets`` empty, not a list of names or
+    naming no dataset; no dataset left; a dataset without ``source``.
+    """
+    datasets = config.get("datasets")
+    if not isinstance(datasets, dict) or not datasets:
+        raise ValueError(
+            "config key 'datasets' holds no dataset; expected at least one "
+            "(a dataset set to null is removed)."
+        )
+    only = config.get(ONLY_DATASETS)
+    if only is not None:
+        if not isinstance(only, list) or not all(isinstance(n, str) for n in only):
+            raise ValueError(
+                f"config key {ONLY_DATASETS!r} is {only!r}; expected a list of dataset names."
+            )
+        if not only:
+            raise ValueError(
+                f"config key {ONLY_DATASETS!r} is empty; expected the names of the "
+                "datasets to run, at least one."
+            )
+        for name in only:
+            if name not in datasets:
+                raise ValueError(
+                    f"config key {ONLY_DATASETS!r} names {name!r}, which is not a dataset "
+                    f"under 'datasets'; expected one of {', '.join(sorted(datasets))}."
+                )
+        for name in [n for n in datasets if n not in only]:
+            del datasets[name]
+    for name, entry in datasets.items():
+        if not isinstance(entry, dict) or "source" not in entry:
+            raise ValueError(
+                f"config key 'datasets.{name}.source' is missing; expected one of "
+                f"{', '.join(SOURCES)} (a new dataset gives task, source, variants, al, "
+                "train and experiments itself)."
+            )
+    if only is None:
+        return {}
+    own = drop_removed(_copy(user)).get("datasets") or {}
+    inherited = {}
+    for name in only:
+        given = _leaves(own.get(name) or {})
+        extra = {k: v for k, v in _leaves(datasets[name]).items() if k not in given}
+        if extra:
+            inherited[name] = extra
+    return inherited
+
+
+def _copy(value):
+    import copy
+
+    return copy.deepcopy(value) if isinstance(value, dict) else {}
 
 
 def check_config(config: dict, schema_path) -> None:

@@ -3,7 +3,7 @@ import shlex
 from pathlib import Path
 
 from snakemake.logging import logger
-from snakemake.settings.types import DeploymentMethod
+from snakemake.settings.types import DeploymentMethod, ExecMode
 
 from spl_al.config import (
     dataset_precision,
@@ -13,8 +13,10 @@ from spl_al.config import (
 )
 from spl_al.data.captures import CaptureOptions, capture_files, shard_count, shard_of
 from spl_al.data.external import folder_has_levels
+from spl_al.photon.io import CAPTURE_SUFFIXES
 from spl_al.labeling import lists_training_rows
 from spl_al.experiment.warm import Server
+from spl_al.experiment.overview import estimate_minutes, jobs_line, plan_text
 from spl_al.experiment.plan import (
     batch_of,
     budget_families,
@@ -94,6 +96,23 @@ try:
 except ValueError as err:
     sys.exit(f"Error: {err}")
 
+# The plan, once per run (not in each cluster job); `jobs_line` follows it once the
+# jobs are known (onstart). `snakemake -n` prints it without running anything.
+if workflow.exec_mode == ExecMode.DEFAULT:
+    logger.info(plan_text(config, INHERITED))
+
+
+def print_jobs_line():
+    """The plan's last line, once the jobs are known (onstart of a local run)."""
+    try:
+        at_once = int(workflow.cores)
+    except Exception:  # a run without --cores (a cluster): one estimate per job
+        at_once = 1
+    jobs = len(workflow.dag)
+    logger.info(
+        jobs_line(jobs, RESULTS, estimate_minutes(config, at_once) if jobs else None)
+    )
+
 
 def real_capture_files():
     """{name: file} of the real captures to picture (none without a captures folder):
@@ -107,6 +126,17 @@ def real_capture_files():
         for p in REAL_CAPTURES.iterdir()
         if p.is_file() and p.suffix.lower() in (".mat", ".ptu")
     )
+    # Nothing skipped without a word: every other file is named once, with why.
+    for p in sorted(REAL_CAPTURES.iterdir()):
+        if not p.is_file() or p.name.startswith(".") or p in files:
+            continue
+        why = (
+            "a cube states no timing: picture it with `python -m spl_al.photon "
+            "reconstruct` and its options (docs/real-data.md)"
+            if p.suffix.lower() in CAPTURE_SUFFIXES
+            else f"not a capture format ({', '.join(CAPTURE_SUFFIXES)})"
+        )
+        logger.info(f"real captures: {p.name} is not pictured; {why}.")
     stems = [p.stem for p in files]
     twins = sorted({s for s in stems if stems.count(s) > 1})
     if twins:
@@ -156,12 +186,21 @@ def runs(dataset):
     return dataset_runs(config, dataset)
 
 
-def metrics_files(dataset):
+def metrics_files(dataset, methods=None):
+    """Every round's metrics of the dataset's runs (of ``methods`` only, when given)."""
     return [
         f"{RESULTS}/{dataset}/{method}/seed{seed}/round{r}/metrics.json"
         for (method, seed), rounds in sorted(runs(dataset).items())
+        if methods is None or method in methods
         for r in range(rounds)
     ]
+
+
+def budget_metrics_files(dataset):
+    """The metrics the budget curves read: every run of the budget experiment's
+    methods, not the sensitivity sweeps' (the curves plot those methods alone)."""
+    budget = experiments_of(config, dataset, METHODS).get("budget") or {}
+    return metrics_files(dataset, set(budget.get("methods", [])))
 
 
 def round_file(wildcards, r, name):

@@ -48,7 +48,7 @@ rule table:
 
 rule curves:
     input:
-        metrics=lambda w: metrics_files(w.dataset),
+        metrics=lambda w: budget_metrics_files(w.dataset),
     output:
         png=report(
             f"{RESULTS}/{{dataset}}/figures/curves.png",

@@ -7,6 +7,7 @@
 
 
 onstart:
+    print_jobs_line()
     start_warm_worker()
 
 

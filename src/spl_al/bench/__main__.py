@@ -8,11 +8,16 @@ import sys
 
 import spl_al.bench
 
+HELPERS = ("timing",)
+"""Modules of the package that are shared helpers, not benchmarks (no ``main``)."""
+
 
 def available() -> list[str]:
     """Names of the benchmarks ``python -m spl_al.bench NAME`` runs."""
     return sorted(
-        m.name for m in pkgutil.iter_modules(spl_al.bench.__path__) if not m.name.startswith("_")
+        m.name
+        for m in pkgutil.iter_modules(spl_al.bench.__path__)
+        if not m.name.startswith("_") and m.name not in HELPERS
     )
 
 

@@ -1,0 +1,132 @@
+"""The plan of a run, printed before its first job (no torch, no data: cheap to import).
+
+Per dataset: its source, image shape, task and oracle, and per experiment the methods,
+seeds, rounds and labeled budgets; which keys a dataset took from config/config.yaml
+when ``only_datasets`` reuses a default's name; the results folder. The workflow prints
+``plan_text`` when it reads its config and ``jobs_line`` once Snakemake knows the jobs.
+"""
+
+from __future__ import annotations
+
+from spl_al.experiment.plan import experiments_of, labeled_at, sweep_table_spec
+
+DEFAULT_SHAPES = {"classification": (64, 64), "segmentation": (64, 256)}
+"""Image shape of the synthetic generators when ``synthesis.image_shape`` is unset."""
+
+
+def _numbers(values) -> str:
+    return ", ".join(str(v) for v in values)
+
+
+def image_shape(entry: dict) -> str:
+    """What shape a dataset's images take, in words."""
+    shape = (entry.get("synthesis") or {}).get("image_shape")
+    source = entry.get("source")
+    standin = source == "folder" and not entry.get("path")
+    if source == "synthetic" or standin:
+        rows, cols = shape or DEFAULT_SHAPES.get(entry.get("task"), ("?", "?"))
+        return f"{rows}x{cols} images"
+    what = "captures" if source == "captures" else "files"
+    if shape:
+        return f"images resized to {shape[0]}x{shape[1]} (synthesis.image_shape)"
+    return f"images as the {what} give them"
+
+
+def _source(entry: dict) -> str:
+    source = entry.get("source")
+    if source == "folder" and not entry.get("path"):
+        return "folder (not set: a synthetic stand-in)"
+    if entry.get("path"):
+        return f"{source} {entry['path']}"
+    return str(source)
+
+
+def _budget(entry: dict, budget: dict, human: bool) -> str:
+    rounds = int(budget["rounds"])
+    labeled = _numbers(labeled_at(entry["al"], r) for r in range(rounds))
+    more = " (each stops for your labels)" if human else ""
+    return (
+        f"budget: methods {', '.join(budget['methods'])}; seeds {_numbers(budget['seeds'])}; "
+        f"{rounds} rounds{more} at {labeled} labeled groups"
+    )
+
+
+def dataset_lines(config: dict, dataset: str) -> list[str]:
+    """The plan's lines of one dataset."""
+    entry = config["datasets"][dataset]
+    human = entry.get("oracle") == "human"
+    oracle = "labels from you (oracle: human)" if human else "simulated oracle"
+    lines = [
+        f"{dataset}: {entry.get('task')}, source {_source(entry)}, {image_shape(entry)}, {oracle}"
+    ]
+    exps = experiments_of(config, dataset)
+    if exps.get("budget"):
+        lines.append("  " + _budget(entry, exps["budget"], human))
+    if exps.get("levels"):
+        lines.append(f"  levels: round {exps['levels']['round']}")
+    ablation = exps.get("ablation")
+    if ablation:
+        lines.append(
+            f"  ablation: methods {', '.join(ablation['methods'])}; "
+            f"seeds {_numbers(ablation['seeds'])}; round {ablation['round']}"
+        )
+    sens = exps.get("sensitivity")
+    if sens:
+        m = int((entry.get("variants") or {}).get("n", 4))
+        swept = "; ".join(
+            f"{param} {_numbers(values)} at round {sens['rounds'][param]}"
+            for param, values in sweep_table_spec(config, m).items()
+            if param in sens["rounds"]
+        )
+        lines.append(f"  sensitivity: {swept}; seeds {_numbers(sens['seeds'])}")
+    return lines
+
+
+def plan_text(config: dict, inherited: dict | None = None) -> str:
+    """The plan of a run of ``config`` (merged and checked): a few lines per dataset.
+
+    ``inherited`` (``spl_al.config.select_datasets``) lists per dataset the keys it
+    took from config/config.yaml; each is named with its value.
+    """
+    names = list(config["datasets"])
+    how = "only_datasets" if config.get("only_datasets") else "config/config.yaml + overrides"
+    lines = [f"Plan: {len(names)} dataset(s) ({how}), results in {config['results']}/"]
+    for dataset in names:
+        lines += ["  " + line for line in dataset_lines(config, dataset)]
+        taken = (inherited or {}).get(dataset)
+        if taken:
+            keys = ", ".join(f"{key}={value!r}" for key, value in taken.items())
+            lines.append(
+                f"    inherits from config/config.yaml's {dataset} ({len(taken)} keys, give "
+                f"them or use a name of your own): {keys}"
+            )
+    return "\n".join(lines)
+
+
+def jobs_line(n_jobs: int, results: str, minutes: float | None = None) -> str:
+    """The plan's last line: the jobs to run, the time estimate when there is one."""
+    time = f", about {minutes:.0f} min (python -m spl_al.bench estimate)" if minutes else ""
+    return f"Plan: {n_jobs} jobs to run{time}; results in {results}/"
+
+
+def estimate_minutes(config: dict, jobs: int = 2) -> float | None:
+    """Predicted wall minutes of the run from ``spl_al.bench.estimate``, or None when
+    that bench is not installed or cannot estimate this config."""
+    try:
+        from spl_al.bench import estimate
+    except ImportError:
+        return None
+    import tempfile
+    from pathlib import Path
+
+    core_s = 0.0
+    try:
+        with tempfile.TemporaryDirectory() as tmp:
+            for dataset, entry in config["datasets"].items():
+                if entry.get("source") not in ("synthetic", "folder"):
+                    return None
+                part = estimate.estimate_dataset(config, dataset, Path(tmp), 10, jobs)
+                core_s += part["train_s"] + part["forward_s"] + part["data_s"]
+    except Exception:  # an estimate is a courtesy, never a failed run
+        return None
+    return core_s / jobs / 60
