@@ -150,7 +150,8 @@ def concurrent_rates(case, jobs: int) -> tuple[float, float]:
         return _measure(case)
     import multiprocessing
 
-    with multiprocessing.get_context("fork").Pool(jobs) as pool:
+    # spawn, not fork: the caller may be a threaded process (Snakemake's, for the plan)
+    with multiprocessing.get_context("spawn").Pool(jobs) as pool:
         rates = pool.map(_measure, [case] * jobs)
     return min(r[0] for r in rates), min(r[1] for r in rates)
 
@@ -196,27 +197,23 @@ def estimate_dataset(config: dict, dataset: str, tmp: Path, steps: int, jobs: in
     }
 
 
-def main(argv: list[str]) -> int:
-    """Print the estimate table of a config; the exit code."""
+def estimate_config(config: dict, jobs: int = 2, steps: int = 30, log=print) -> dict:
+    """Predicted seconds of a merged config's run, ``jobs`` at a time: ``{"wall_s",
+    "jobs", "rows"}`` with one table row per dataset (``HEADER``). Datasets whose size
+    only their files know (folders, captures, unlabeled) are named through ``log`` and
+    left out."""
     import tempfile
 
-    parser = argparse.ArgumentParser(prog="python -m spl_al.bench estimate", description=__doc__)
-    parser.add_argument(
-        "--configfile", type=Path, nargs="*", default=[], help="override files, as Snakemake's"
-    )
-    parser.add_argument("--jobs", "-j", type=int, default=2, help="jobs at a time (snakemake -j)")
-    parser.add_argument("--steps", type=int, default=30, help="timed training steps per model")
-    args = parser.parse_args(argv)
-    config = merged_config(args.configfile)
     warm = bool(config.get("warm_worker", True))
     rows, total_core, total_jobs = [], 0.0, FIXED_JOBS
     with tempfile.TemporaryDirectory() as tmp:
-        for dataset in config["datasets"]:
-            if config["datasets"][dataset].get("source") not in ("synthetic", "folder"):
-                print(f"{dataset}: source {config['datasets'][dataset].get('source')!r} is "
-                      "not estimated (its size is known only from its files).")  # fmt: skip
+        for dataset, entry in config["datasets"].items():
+            standin = entry.get("source") == "folder" and not entry.get("path")
+            if entry.get("source") != "synthetic" and not standin:
+                log(f"{dataset}: source {entry.get('source')!r} is not estimated (its size "
+                    "is known only from its files).")  # fmt: skip
                 continue
-            part = estimate_dataset(config, dataset, Path(tmp), args.steps, args.jobs)
+            part = estimate_dataset(config, dataset, Path(tmp), steps, jobs)
             core = part["train_s"] + part["forward_s"] + part["data_s"]
             core += part["jobs"] * (JOB_START_S[warm] + SCHEDULER_S_PER_JOB)
             total_core += core
@@ -225,21 +222,38 @@ def main(argv: list[str]) -> int:
                 [dataset, part["precision"], f"{part['train_rate']:.0f}",
                  str(part["trainings"]), str(part["jobs"]), f"{part['train_s'] / 60:.1f}",
                  f"{part['forward_s'] / 60:.1f}", f"{part['data_s'] / 60:.1f}",
-                 f"{core / args.jobs / 60:.1f}"]
+                 f"{core / jobs / 60:.1f}"]
             )  # fmt: skip
-    wall = total_core / args.jobs
-    rows.append(["**total**", "", "", "", str(total_jobs), "", "", "", f"**{wall / 60:.1f}**"])
-    header = ["dataset", "precision", "train images/s", "trainings", "jobs", "train core-min",
-              "eval+score core-min", "data core-min", "wall min"]  # fmt: skip
+    return {"wall_s": total_core / jobs, "jobs": total_jobs, "rows": rows}
+
+
+HEADER = ["dataset", "precision", "train images/s", "trainings", "jobs", "train core-min",
+          "eval+score core-min", "data core-min", "wall min"]  # fmt: skip
+
+
+def main(argv: list[str]) -> int:
+    """Print the estimate table of a config; the exit code."""
+    parser = argparse.ArgumentParser(prog="python -m spl_al.bench estimate", description=__doc__)
+    parser.add_argument(
+        "--configfile", type=Path, nargs="*", default=[], help="override files, as Snakemake's"
+    )
+    parser.add_argument("--jobs", "-j", type=int, default=2, help="jobs at a time (snakemake -j)")
+    parser.add_argument("--steps", type=int, default=30, help="timed training steps per model")
+    args = parser.parse_args(argv)
+    config = merged_config(args.configfile)
+    result = estimate_config(config, args.jobs, args.steps)
+    wall = result["wall_s"]
+    rows = [*result["rows"], ["**total**", "", "", "", str(result["jobs"]), "", "", "",
+                              f"**{wall / 60:.1f}**"]]  # fmt: skip
     threads = int(config.get("threads_per_job", 1))
     print(
         f"## Estimated wall time of `snakemake -j{args.jobs}` ({cpu_name()}, {os.cpu_count()} "
         f"cores, {threads} thread(s) per job, load average {os.getloadavg()[0]:.2f}, "
         f"{time.strftime('%Y-%m-%d')})\n"
     )
-    print(markdown_table(header, rows))
+    print(markdown_table(HEADER, rows))
     print(
-        f"\nPredicted: {wall / 60:.0f} min for {total_jobs} jobs. Core minutes by part; "
+        f"\nPredicted: {wall / 60:.0f} min for {result['jobs']} jobs. Core minutes by part; "
         "wall = core time / jobs at a time (a prediction: docs/benchmarks.md#estimate)."
     )
     return 0

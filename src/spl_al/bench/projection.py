@@ -49,10 +49,17 @@ def merged_config(paths: list[Path]) -> dict:
             else:
                 base[key] = copy.deepcopy(value)
 
+    from spl_al.config import select_datasets
+
     config = yaml.safe_load((ROOT / "config" / "config.yaml").read_text())
+    user: dict = {}
     for path in paths:
-        update(config, yaml.safe_load(Path(path).read_text()) or {})
-    return drop_removed(config)
+        override = yaml.safe_load(Path(path).read_text()) or {}
+        update(config, override)
+        update(user, override)
+    config = drop_removed(config)
+    select_datasets(config, user)  # only_datasets: exactly the datasets it lists
+    return config
 
 
 def split_sizes(entry: dict) -> tuple[int, int, int]:

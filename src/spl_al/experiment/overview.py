@@ -109,24 +109,23 @@ def jobs_line(n_jobs: int, results: str, minutes: float | None = None) -> str:
     return f"Plan: {n_jobs} jobs to run{time}; results in {results}/"
 
 
-def estimate_minutes(config: dict, jobs: int = 2) -> float | None:
-    """Predicted wall minutes of the run from ``spl_al.bench.estimate``, or None when
-    that bench is not installed or cannot estimate this config."""
-    try:
-        from spl_al.bench import estimate
-    except ImportError:
-        return None
-    import tempfile
-    from pathlib import Path
+ESTIMATE_ENV = "SPL_AL_ESTIMATE"
+"""Set to 0 to leave the time estimate out of the plan (it times each model first)."""
 
-    core_s = 0.0
+
+def estimate_minutes(config: dict, jobs: int = 2) -> float | None:
+    """Predicted wall minutes of the run (``spl_al.bench.estimate.estimate_config``, ~10 s
+    per dataset), or None when ``$SPL_AL_ESTIMATE`` is 0 or the config cannot be
+    estimated (a dataset known only from its files)."""
+    import os
+
+    if os.environ.get(ESTIMATE_ENV, "1") == "0":
+        return None
     try:
-        with tempfile.TemporaryDirectory() as tmp:
-            for dataset, entry in config["datasets"].items():
-                if entry.get("source") not in ("synthetic", "folder"):
-                    return None
-                part = estimate.estimate_dataset(config, dataset, Path(tmp), 10, jobs)
-                core_s += part["train_s"] + part["forward_s"] + part["data_s"]
+        from spl_al.bench.estimate import estimate_config
+
+        skipped: list[str] = []
+        result = estimate_config(config, jobs, steps=10, log=skipped.append)
     except Exception:  # an estimate is a courtesy, never a failed run
         return None
-    return core_s / jobs / 60
+    return None if skipped or not result["rows"] else result["wall_s"] / 60
