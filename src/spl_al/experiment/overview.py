@@ -104,8 +104,14 @@ def plan_text(config: dict, inherited: dict | None = None) -> str:
 
 
 def jobs_line(n_jobs: int, results: str, minutes: float | None = None) -> str:
-    """The plan's last line: the jobs to run, the time estimate when there is one."""
-    time = f", about {minutes:.0f} min (python -m spl_al.bench estimate)" if minutes else ""
+    """The plan's last line: the jobs to run, and the predicted time of the whole config
+    from scratch on this machine when there is one."""
+    time = (
+        f"; the whole config takes about {minutes:.0f} min from scratch here "
+        "(python -m spl_al.bench estimate)"
+        if minutes
+        else ""
+    )
     return f"Plan: {n_jobs} jobs to run{time}; results in {results}/"
 
 
