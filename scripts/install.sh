@@ -1,5 +1,6 @@
 #!/usr/bin/env bash
-# Installs spl-al and its dev tools into the current Python ($PYTHON, default python3).
+# Installs spl-al, its dev tools and the optional scikit-activeml baselines
+# (spl-al[baselines]) into the current Python ($PYTHON, default python3).
 #
 # torch, which is the only heavy dependency, is handled first:
 # - a torch that is already installed (for example a CUDA build) is kept;
@@ -28,5 +29,6 @@ else
   echo "install.sh: $CPU_INDEX unreachable, installing $TORCH from the package index instead"
   "$PY" -m pip install --quiet "$TORCH"
 fi
-"$PY" -m pip install --quiet -e ".[dev]"
+# the dev tools and the scikit-activeml baselines (typiclust, probcover, maxherding)
+"$PY" -m pip install --quiet -e ".[dev,baselines]"
 "$PY" -c "import torch; print(f'install.sh: torch {torch.__version__}, CUDA available: {torch.cuda.is_available()}')"

@@ -216,3 +216,38 @@ def test_budget_curves_draw_each_family_in_its_own_panel(tmp_path):
     assert [t.get_text() for t in axes[1].get_legend().get_texts()][-1] == "DUIS"
     # one panel without a matched family
     assert len(curves_figure(df, methods=["random", "duis"]).get_axes()) == 1
+
+
+def test_duis_against_the_strongest_low_budget_baseline_under_matched_training():
+    """One claim: DUIS's AUBC against the low-budget twin (syn_typiclust, syn_probcover,
+    syn_maxherding) with the highest mean AUBC, a member of the matched family."""
+    renamed = {"syn_margin": "syn_typiclust", "syn_random": "syn_probcover"}
+    df = records().replace({"method": renamed})
+    budget = {
+        "methods": ["random", "syn_probcover", "syn_typiclust", "syn_diversity", "duis"],
+        "seeds": list(SEEDS),
+        "rounds": 4,
+    }
+    families = {
+        "paper": ["random", "duis"],
+        "matched": ["syn_probcover", "syn_typiclust", "syn_diversity", "duis"],
+    }
+    cmp = comparisons(df, {"budget": budget}, {})
+    out = claims(cmp, families).set_index("claim_id")
+    row = out.loc["duis_over_low_budget_matched"]
+    assert row["n_comparisons"] == 1 and row["source"] == "extension"
+    # syn_typiclust (offset 0.05) is stronger than syn_probcover (0.04)
+    assert "Syn+TypiClust" in row["claim"] and "matched training" in row["claim"]
+    assert "rounds 1-3" in row["claim"] and row["rule"] == "5%"
+    # the same verdict as the pairwise comparison it rests on
+    pair = cmp[(cmp["point"] == "AUBC") & cmp["method_b"].isin(["syn_typiclust", "duis"])]
+    pair = pair[pair["method_a"].isin(["syn_typiclust", "duis"])]
+    assert len(pair) == 1
+    expected = "supported" if pair["resolved"].iloc[0] else "inconclusive"
+    assert row["verdict"] == expected
+    # without a low-budget twin in the matched family, no such claim
+    plain = claims(
+        comparisons(records(), {"budget": {**budget, "methods": list(OFFSET)}}, {}),
+        {"paper": ["random", "margin", "duis"], "matched": ["syn_random", "duis"]},
+    )
+    assert "duis_over_low_budget_matched" not in set(plain["claim_id"])

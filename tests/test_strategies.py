@@ -319,23 +319,49 @@ def make_inputs(n_unl=30, n_lab=6, c=4, d=5, g=3, kind="random", dense=False, se
     return StrategyInputs(unlabeled_idx=np.sort(order[:n_unl]), labeled_idx=order[n_unl:], **parts)
 
 
-# duis and diversity at their defaults (N_cand 500) only with the half-pool limit lifted
-WHOLE = {"duis": {"max_cand_fraction": None}, "diversity": {"max_cand_fraction": None}}
-CASES = [(name, WHOLE.get(name, {})) for name in strategies.names()] + [
-    ("duis", {"n_cand": 5}),
-    ("diversity", {"n_cand": 5}),
-    ("duis", {"n_cand": 8, "alpha": 1.0}),
-    ("badge", {"first": "random"}),
+# duis and diversity at their defaults (N_cand 500) only with the half-pool limit lifted;
+# the generic scikit-activeml adapter with one class
+DEFAULTS = {
+    "duis": {"max_cand_fraction": None},
+    "diversity": {"max_cand_fraction": None},
+    "skactiveml": {"cls": "TypiClust"},
+}
+BUILTIN = strategies.base.builtin_names()
+# the scikit-activeml strategies need the optional extra spl-al[baselines]
+SKACTIVEML = {"skactiveml", "typiclust", "probcover", "maxherding"}
+try:
+    import skactiveml  # noqa: F401
+
+    HAS_SKACTIVEML = True
+except ImportError:
+    HAS_SKACTIVEML = False
+
+
+def _case(name, params):
+    marks = []
+    if name in SKACTIVEML and not HAS_SKACTIVEML:
+        marks = [pytest.mark.skip(reason="scikit-activeml is not installed (spl-al[baselines])")]
+    tag = "-".join(f"{k}{v}" for k, v in params.items())
+    return pytest.param(name, params, marks=marks, id=f"{name}-{tag}")
+
+
+CASES = [_case(name, DEFAULTS.get(name, {})) for name in BUILTIN] + [
+    _case("duis", {"n_cand": 5}),
+    _case("diversity", {"n_cand": 5}),
+    _case("duis", {"n_cand": 8, "alpha": 1.0}),
+    _case("badge", {"first": "random"}),
+    _case("probcover", {"n_classes": 4}),
+    _case("skactiveml", {"cls": "MaxHerding", "metric": "linear"}),
 ]
-IDS = [f"{n}-{'-'.join(f'{k}{v}' for k, v in p.items())}" for n, p in CASES]
 
 
 def test_registry_lists_every_strategy_of_the_paper():
-    assert set(strategies.names()) == {
-        "random", "entropy", "margin", "coreset", "badge", "duis", "diversity"
+    assert set(BUILTIN) == {
+        "random", "entropy", "margin", "coreset", "badge", "duis", "diversity",
+        "skactiveml", "typiclust", "probcover", "maxherding",
     }  # fmt: skip
-    for name in strategies.names():
-        s = strategies.get(name)
+    for name in set(BUILTIN) - (set() if HAS_SKACTIVEML else SKACTIVEML):
+        s = strategies.get(name, **({"cls": "TypiClust"} if name == "skactiveml" else {}))
         assert s.needs <= set(NEEDS) and s.name == name
     with pytest.raises(ValueError, match="unknown strategy"):
         strategies.get("bald")
@@ -345,12 +371,11 @@ def test_registry_lists_every_strategy_of_the_paper():
         strategies.get("duis", n_cand=0)
 
 
-@pytest.mark.parametrize(("name", "params"), CASES, ids=IDS)
-@pytest.mark.parametrize("kind", ["random", "identical", "one_class"])
-@pytest.mark.parametrize("dense", [False, True], ids=["cls", "seg"])
-def test_strategy_contract(name, params, kind, dense):
+def check_contract(name, params, inputs):
+    """The shared strategy contract on ``inputs``: for every budget, min(budget, n)
+    distinct unlabeled picks, never a labeled one, the same under the same rng; the
+    whole pool when the budget exceeds it."""
     strategy = strategies.get(name, **params)
-    inputs = make_inputs(kind=kind, dense=dense)
     n = inputs.n_unlabeled
     for budget in (0, 1, 7, n - 1, n, n + 5):
         picks = strategy.select(inputs, budget, np.random.default_rng(11))
@@ -365,7 +390,14 @@ def test_strategy_contract(name, params, kind, dense):
     )
 
 
-@pytest.mark.parametrize(("name", "params"), CASES, ids=IDS)
+@pytest.mark.parametrize(("name", "params"), CASES)
+@pytest.mark.parametrize("kind", ["random", "identical", "one_class"])
+@pytest.mark.parametrize("dense", [False, True], ids=["cls", "seg"])
+def test_strategy_contract(name, params, kind, dense):
+    check_contract(name, params, make_inputs(kind=kind, dense=dense))
+
+
+@pytest.mark.parametrize(("name", "params"), CASES)
 def test_strategy_contract_errors(name, params):
     strategy = strategies.get(name, **params)
     inputs = make_inputs()

@@ -1,13 +1,18 @@
 """Benchmark the acquisition strategies and training throughput on this machine.
 
 ``python -m spl_al.bench strategies [--pool 20000 --dim 512 --classes 11 --m 4
---batch 100 --n-cand 500 --labeled 1000 --skip-training]``
+--batch 100 --n-cand 500 --labeled 1000 --only NAME ... --skip-training]``
 
-Prints Markdown tables: time and peak memory of coreset, badge and duis on a
-synthetic unlabeled pool, then training throughput (images/s) of the default CPU
-classifier and of ResNet-18 at 64x64 next to the measured matrix-multiply FLOP/s.
+Prints Markdown tables: time and peak memory of coreset, badge and duis, and of
+scikit-activeml's typiclust, probcover and maxherding (when installed: the extra
+spl-al[baselines]), on a synthetic unlabeled pool, then training throughput
+(images/s) of the default CPU classifier and of ResNet-18 at 64x64 next to the
+measured matrix-multiply FLOP/s.
 Peak memory is measured twice: the peak of numpy allocations made during the call
 (tracemalloc) and the growth of the process's resident-set high-water mark (Linux).
+The scikit-activeml strategies are timed once, with the resident-set growth only:
+tracemalloc needs a second call, and on a 20k pool each is minutes (ProbCover and
+MaxHerding hold 20k x 20k matrices).
 """
 
 from __future__ import annotations
@@ -48,8 +53,9 @@ def _reset_peak_rss() -> bool:
         return False
 
 
-def measure(fn: Callable[[], object]) -> dict:
-    """Wall time, tracemalloc peak and RSS high-water growth of one call of ``fn``."""
+def measure(fn: Callable[[], object], traced: bool = True) -> dict:
+    """Wall time, tracemalloc peak (a second call; None without ``traced``) and RSS
+    high-water growth of one call of ``fn``."""
     gc.collect()
     can_reset = _reset_peak_rss()
     rss0 = _rss_kib("VmRSS")
@@ -58,6 +64,8 @@ def measure(fn: Callable[[], object]) -> dict:
     seconds = time.perf_counter() - t0
     hwm = _rss_kib("VmHWM")
     rss_mb = (hwm - rss0) / 1024 if can_reset and hwm is not None and rss0 is not None else None
+    if not traced:
+        return {"seconds": seconds, "traced_mb": None, "rss_mb": rss_mb}
     gc.collect()
     tracemalloc.start()
     fn()
@@ -111,12 +119,34 @@ def bench_strategies(args) -> list[list[str]]:
         return lambda: get(name).select(inputs, args.batch, np.random.default_rng(0))
 
     targets = {"coreset": "<= 10 s, <= 500 MB", "badge": "<= 5 s", "duis": "<= 30 s"}
+    cases = [("coreset", run("coreset"), True), ("badge", run("badge"), True)]
+    cases.append(("duis", duis, True))
+    baselines = {"probcover": {"n_classes": args.classes}}
+    for name in ("typiclust", "probcover", "maxherding"):
+        params = baselines.get(name, {})
+        cases.append((name, lambda n=name, p=params: _select(n, p, inputs, args.batch), False))
+    only = set(getattr(args, "only", None) or [c[0] for c in cases])
     rows = []
-    for name, fn in (("coreset", run("coreset")), ("badge", run("badge")), ("duis", duis)):
-        r = measure(fn)
+    for name, fn, traced in cases:
+        if name not in only:
+            continue
+        try:
+            r = measure(fn, traced)
+        except ValueError as err:  # scikit-activeml not installed
+            rows.append([name, "n/a", "n/a", "n/a", str(err)])
+            continue
         rss = "n/a" if r["rss_mb"] is None else f"{r['rss_mb']:.0f}"
-        rows.append([name, f"{r['seconds']:.2f}", f"{r['traced_mb']:.0f}", rss, targets[name]])
+        mb = "n/a" if r["traced_mb"] is None else f"{r['traced_mb']:.0f}"
+        rows.append([name, f"{r['seconds']:.2f}", mb, rss, targets.get(name, "")])
     return rows
+
+
+def _select(name: str, params: dict, inputs: StrategyInputs, batch: int) -> np.ndarray:
+    import warnings
+
+    with warnings.catch_warnings():  # scikit-learn's convergence notes, not results
+        warnings.simplefilter("ignore")
+        return get(name, **params).select(inputs, batch, np.random.default_rng(0))
 
 
 def matmul_gflops(size: int = 2048, repeats: int = 5) -> float:
@@ -246,6 +276,7 @@ def main(argv: list[str]) -> int:
     parser.add_argument("--n-cand", type=int, default=500, help="DUIS candidate pool N_cand")
     parser.add_argument("--labeled", type=int, default=1000, help="labeled groups (coreset)")
     parser.add_argument("--threads", default="1,2", help="torch thread counts for training")
+    parser.add_argument("--only", nargs="+", help="strategies to time (default: all)")
     parser.add_argument("--skip-training", action="store_true")
     args = parser.parse_args(argv)
     load_before = _load()

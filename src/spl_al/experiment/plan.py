@@ -58,6 +58,50 @@ def matched_name(method: str) -> str:
     return f"{MATCHED_PREFIX}{method}"
 
 
+def entry_strategy(entry: dict) -> tuple[str, dict]:
+    """A ``methods`` entry's registered strategy and parameters: ``{strategy: NAME}``
+    as it stands, ``{skactiveml: CLASS}`` as the adapter ``skactiveml`` with
+    ``cls=CLASS`` (``spl_al.strategies.skactiveml_adapter``)."""
+    params = dict(entry.get("params") or {})
+    if entry.get("skactiveml") is not None:
+        return "skactiveml", {"cls": entry["skactiveml"], **params}
+    return entry["strategy"], params
+
+
+def check_strategies(config: dict, specs: dict | None = None) -> None:
+    """Every method's strategy exists (built in or from an installed package's entry
+    point), and every method a dataset runs builds with its parameters and the
+    dataset's ``method_params``: else a one-sentence ValueError naming the method and
+    why (e.g. a scikit-activeml class that needs a classifier, or scikit-activeml not
+    installed). A method no experiment runs is not built, so the optional extras of
+    the default config's unused methods need not be installed."""
+    from spl_al.strategies import get, names
+
+    specs = specs if specs is not None else method_specs(config)
+    known = names()
+    for name, spec in specs.items():
+        if spec.strategy not in known:
+            raise ValueError(
+                f"config key 'methods.{name}': unknown strategy {spec.strategy!r}; expected "
+                f"one of {known}, or an installed package's entry point in group "
+                "'spl_al.strategies'."
+            )
+    checked = set()
+    for dataset in config["datasets"]:
+        for name, _seed in dataset_runs(config, dataset):
+            if name not in specs:
+                continue  # check_plan names it
+            spec = dataset_method(config, dataset, name, specs)
+            key = (spec.strategy, repr(sorted(spec.params.items())))
+            if key in checked:
+                continue
+            checked.add(key)
+            try:
+                get(spec.strategy, **spec.params)
+            except ValueError as err:
+                raise ValueError(f"config key 'methods.{name}': {err}") from None
+
+
 def method_specs(config: dict) -> dict[str, MethodSpec]:
     """All methods of a config: the named entries, the generated sweep entries and the
     matched twins of budget experiments with ``matched: true``.
@@ -69,10 +113,11 @@ def method_specs(config: dict) -> dict[str, MethodSpec]:
     """
     specs = {}
     for name, entry in config["methods"].items():
+        strategy, params = entry_strategy(entry)
         specs[name] = MethodSpec(
             name=name,
-            strategy=entry["strategy"],
-            params=dict(entry.get("params", {})),
+            strategy=strategy,
+            params=params,
             use_variants=bool(entry.get("use_variants", False)),
             n_variants=entry.get("n_variants"),
         )
@@ -315,10 +360,12 @@ def _check_candidate_pools(config: dict, dataset: str, runs: dict, specs: dict) 
 
 
 def check_plan(config: dict) -> None:
-    """Every method a dataset's experiments name must exist; rounds must be >= 1; a
-    per-round batch list has one batch per query; N_cand is at most half the unlabeled
-    pool at every query (where the config fixes the pool's size)."""
+    """Every method's strategy exists and takes its parameters; every method a
+    dataset's experiments name must exist; rounds must be >= 1; a per-round batch list
+    has one batch per query; N_cand is at most half the unlabeled pool at every query
+    (where the config fixes the pool's size)."""
     specs = method_specs(config)
+    check_strategies(config, specs)
     for dataset, entry in config["datasets"].items():
         if entry.get("source") == "unlabeled" and entry.get("oracle") != "human":
             raise ValueError(

@@ -535,9 +535,14 @@ def query_round(
     A k-means candidate pool strategy (DUIS, diversity) must draw N_cand from at least
     twice as many unlabeled groups: else one sentence naming ``dataset``/``method_name``,
     the round, N_cand and the pool (``CandidatePoolTooLarge``). The record gives the
-    unlabeled pool's size, N_cand (None without a candidate pool) and their ratio."""
+    unlabeled pool's size, N_cand (None without a candidate pool) and their ratio.
+
+    The picks are checked against the strategy contract whatever the strategy (one
+    from another package may override ``select``): ``batch`` (or every remaining)
+    distinct indices of unlabeled groups. Else ``StrategyContractError``, one sentence
+    naming the round, the strategy and what it returned, and nothing is written."""
     from spl_al.pool import Pool
-    from spl_al.strategies import StrategyInputs, get
+    from spl_al.strategies import StrategyContractError, StrategyInputs, check_picks, get
     from spl_al.strategies.duis import CandidatePoolTooLarge, n_cand_error
 
     spec = MethodSpec(name="", **method)
@@ -561,7 +566,13 @@ def query_round(
         )
         raise CandidatePoolTooLarge(message, err.n_cand, err.n_unlabeled) from None
     rng = np.random.default_rng(step_seed(seed, round_ - 1, _QUERY_STREAM))
-    picked = strategy.select(inputs, int(batch), rng)
+    try:
+        picked = check_picks(spec.strategy, strategy.select(inputs, int(batch), rng), inputs, batch)
+    except StrategyContractError as err:
+        where = f"{dataset}/{method_name}" if dataset and method_name else method_name or "run"
+        raise StrategyContractError(
+            f"{where} seed {seed}: the query that makes round {round_} stopped, as {err}"
+        ) from None
     n_train = int(labeled.size + n_unlabeled)
     pool = Pool(n_train, labeled)
     pool.add(picked)

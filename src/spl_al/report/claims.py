@@ -90,6 +90,7 @@ SOURCES = {
     "duis_best_aubc_matched": EXTENSION,
     "duis_best_every_level": PAPER,
     "duis_best_every_level_matched": EXTENSION,
+    "duis_over_low_budget_matched": EXTENSION,
     "variant_training": EXTENSION,
     "uncertainty_over_random": EXTENSION,
     "diversity_over_uncertainty": PAPER,
@@ -299,6 +300,32 @@ def _best_method_claims(cmp: pd.DataFrame, metric: str, families) -> list[dict]:
     return out
 
 
+LOW_BUDGET = ("typiclust", "probcover", "maxherding")
+"""The low-budget baselines (scikit-activeml's, ``spl_al.strategies.skactiveml_adapter``)."""
+
+
+def _low_budget_claim(cmp: pd.DataFrame, families) -> dict | None:
+    """DUIS's AUBC over the query rounds beats the strongest low-budget baseline trained
+    on the variants (``syn_X`` of ``LOW_BUDGET``, the one with the highest mean AUBC):
+    acquisition against acquisition at equal training. None without one in the run."""
+    matched = (families or {}).get("matched") or []
+    twins = [m for m in matched if m in {f"syn_{x}" for x in LOW_BUDGET}]
+    area = cmp[(cmp["experiment"] == "budget") & (cmp["point"] == "AUBC")]
+    rows = _with_full(area, twins) if twins else area.iloc[0:0]
+    if rows.empty:
+        return None
+    best = rows.loc[[rows["mean_b"].astype(float).idxmax()]]
+    span = f" ({best['span'].iloc[0]})" if "span" in best and pd.notna(best["span"].iloc[0]) else ""
+    rival = method_label(str(best["method_b"].iloc[0]))
+    return _all_beat(
+        "duis_over_low_budget_matched",
+        f"DUIS has a larger AUBC over query rounds{span} than the strongest low-budget "
+        f"baseline, {rival}, under matched training.",
+        "budget",
+        best,
+    )
+
+
 def _pair(cmp: pd.DataFrame, experiment: str, a: str, b: str) -> pd.DataFrame:
     rows = cmp[cmp["experiment"] == experiment]
     pick = ((rows["method_a"] == a) & (rows["method_b"] == b)) | (
@@ -445,6 +472,7 @@ def claims(
     metric = "mIoU" if first["metric"] == "miou" else metric.lower()
     rows = [
         *_best_method_claims(cmp, metric, families or {}),
+        _low_budget_claim(cmp, families),
         *_decomposition_claims(cmp),
         _m_claim(cmp),
         _ncand_claim(cmp),

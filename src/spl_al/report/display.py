@@ -24,6 +24,13 @@ METHOD_LABELS = {
     "syn_coreset": "Syn+Coreset",
     "syn_random": "Syn+Random",
     "syn_diversity": "Syn+Diversity",
+    # the low-budget baselines (scikit-activeml), after the paper's rows
+    "typiclust": "TypiClust",
+    "probcover": "ProbCover",
+    "maxherding": "MaxHerding",
+    "syn_typiclust": "Syn+TypiClust",
+    "syn_probcover": "Syn+ProbCover",
+    "syn_maxherding": "Syn+MaxHerding",
     "duis": "DUIS",
 }
 
@@ -56,6 +63,9 @@ _STRATEGY_COLORS = {
     "coreset": "#2ca02c",
     "badge": "#9467bd",
     "diversity": "#8c564b",
+    "typiclust": "#e377c2",
+    "probcover": "#17becf",
+    "maxherding": "#bcbd22",
 }
 PALETTE = {
     **_STRATEGY_COLORS,
