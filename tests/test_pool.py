@@ -79,13 +79,12 @@ def _one_al_round(depth, valid, oracle, labeled, seed):
     model = build_model("classification", 3, width=4)
     cfg = TrainConfig(epochs=3, batch_size=16, log_every=0)
     train(model, d, v, t, cfg, seed=seed, device="cpu", log=io.StringIO())
-    needs = set().union(*(strategies.get(n).needs for n in strategies.names()))
+    params = {"duis": {"n_cand": 8}, "diversity": {"n_cand": 8}, "skactiveml": {"cls": "TypiClust"}}
+    built = {n: strategies.get(n, **params.get(n, {})) for n in strategies.names()}
+    needs = set().union(*(s.needs for s in built.values()))
     inputs = compute_inputs(model, needs, depth, valid, pool.unlabeled_idx, pool.labeled_idx, "cpu")
     return {
-        name: strategies.get(name, **({"n_cand": 8} if name in ("duis", "diversity") else {}))
-        .select(inputs, 5, np.random.default_rng(seed))
-        .tolist()
-        for name in strategies.names()
+        name: s.select(inputs, 5, np.random.default_rng(seed)).tolist() for name, s in built.items()
     }
 
 

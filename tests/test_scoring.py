@@ -45,10 +45,14 @@ def cls_setup():
     return model, depth, valid, np.arange(5, 20), np.arange(5)
 
 
+# the generic scikit-activeml adapter is built with one of its classes
+PARAMS = {"skactiveml": {"cls": "TypiClust"}}
+
+
 @pytest.mark.parametrize("name", strategies.names())
 def test_only_the_needed_parts_are_computed(cls_setup, name):
     model, depth, valid, unl, lab = cls_setup
-    needs = strategies.get(name).needs
+    needs = strategies.get(name, **PARAMS.get(name, {})).needs
     counting = CountingModel(model)
     inputs = compute_inputs(counting, needs, depth, valid, unl, lab, "cpu")
     present = {f for f in ALL_FIELDS if getattr(inputs, f) is not None}
@@ -113,7 +117,7 @@ def test_segmentation_inputs_are_per_group_and_average_observed_valid_pixels():
         picks = (
             strategies.get(name, n_cand=2)
             if name in ("duis", "diversity")
-            else strategies.get(name)
+            else strategies.get(name, **PARAMS.get(name, {}))
         )
         assert len(picks.select(inputs, 2, np.random.default_rng(0))) == 2
 
