@@ -156,6 +156,19 @@ def concurrent_rates(case, jobs: int) -> tuple[float, float]:
     return min(r[0] for r in rates), min(r[1] for r in rates)
 
 
+def deploy_jobs(config: dict, dataset: str) -> int:
+    """Model cards beside the budget's final models and the ONNX exports (seconds each)."""
+    from spl_al.experiment.plan import experiments_of
+
+    budget = experiments_of(config, dataset).get("budget")
+    if not budget:
+        return 0
+    exported = set((config.get("export") or {}).get("methods", [])) & set(budget["methods"])
+    arch = config["datasets"][dataset]["train"].get("model", {}).get("arch")
+    exports = 0 if arch == "pointnet2" else len(exported)
+    return (len(budget["methods"]) + exports) * len(budget["seeds"])
+
+
 def estimate_dataset(config: dict, dataset: str, tmp: Path, steps: int, jobs: int = 2) -> dict:
     """Seconds of one dataset's jobs, by part, and its job count."""
     import torch
@@ -184,6 +197,7 @@ def estimate_dataset(config: dict, dataset: str, tmp: Path, steps: int, jobs: in
     jobs = (
         counts["trainings"] + counts["queries"] + counts["copies"] + REPORT_JOBS
         + 2 + 2 * int(entry["variants"].get("shards", 1)) + (2 if robust else 0)
+        + deploy_jobs(config, dataset)
     )  # fmt: skip
     return {
         "precision": precision,
