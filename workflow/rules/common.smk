@@ -1,4 +1,5 @@
 # Shared names and input functions; rules live in the other .smk files.
+import functools
 import shlex
 from pathlib import Path
 
@@ -114,6 +115,7 @@ def print_jobs_line():
     )
 
 
+@functools.cache  # once per run: it names every file it leaves out
 def real_capture_files():
     """{name: file} of the real captures to picture (none without a captures folder):
     the .mat and .ptu files, named by their stem. Formats that may state no timing
