@@ -255,3 +255,11 @@ def test_an_entry_point_strategy_runs_one_round_of_the_ci_dag(on_path, tmp_path)
     out = run.stdout + run.stderr
     assert "real_cls/bad seed 1: the query that makes round 1 stopped, as strategy 'broken'" in out
     assert not target.exists()
+
+
+def test_a_package_taken_off_the_path_takes_its_strategies_with_it(plugin_dir, monkeypatch):
+    monkeypatch.syspath_prepend(str(plugin_dir))
+    assert "farthest" in strategies.names()
+    monkeypatch.undo()
+    assert "farthest" not in strategies.names() and "broken" not in strategies.names()
+    assert set(strategies.base.builtin_names()) <= set(strategies.names())

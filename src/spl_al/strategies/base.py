@@ -26,6 +26,7 @@ _REGISTRY: dict[str, type[Strategy]] = {}
 _BUILTIN: set[str] = set()
 # sys.path at the last entry-point scan: a changed path (a package added) scans again
 _SCANNED_FOR: list[tuple[str, ...] | None] = [None]
+_FROM_ENTRY_POINTS: set[str] = set()  # names the last scan registered
 _SCANNING: list[str] = []  # the entry point being loaded (its @register is not built-in)
 
 
@@ -150,6 +151,11 @@ def load_entry_points(force: bool = False) -> list[str]:
     if _SCANNED_FOR[0] == path and not force:
         return sorted(set(_REGISTRY) - _BUILTIN)
     _SCANNED_FOR[0] = path
+    # The registry holds the entry points of this sys.path: a package no longer on it
+    # (uninstalled, or a path taken off again) takes its strategies with it.
+    for name in _FROM_ENTRY_POINTS:
+        _REGISTRY.pop(name, None)
+    _FROM_ENTRY_POINTS.clear()
     for ep in entry_points(group=ENTRY_POINT_GROUP):
         where = f"entry point {ep.name!r} ({ep.value}) of group {ENTRY_POINT_GROUP!r}"
         dist = getattr(ep, "dist", None)
@@ -175,6 +181,7 @@ def load_entry_points(force: bool = False) -> list[str]:
             cls.name = ep.name
             check_needs(cls.needs)
             _REGISTRY[ep.name] = cls
+        _FROM_ENTRY_POINTS.add(ep.name)
     return sorted(set(_REGISTRY) - _BUILTIN)
 
 
