@@ -206,6 +206,9 @@ def test_every_method_trains_the_same_steps_at_every_dataset_seed_and_round(ci_r
     assert (seg.loc["duis", "images_seen"] > seg.loc["random", "images_seen"]).all()
     fits = [json.loads(p.read_text()) for p in ci_results.glob("*/initial/seed*/m*/fit.json")]
     assert fits and all(f["train_steps"] >= 1 and f["images_seen"] >= 1 for f in fits)
+    # street_pc's train.warm_start: round 1 fine-tunes round 0's model for its 2 steps
+    pc = df[df["dataset"] == "street_pc"].groupby("round")["train_steps"].unique()
+    assert pc[0].tolist() == [4] and pc[1].tolist() == [2], pc
 
 
 def test_final_models_export_to_onnx_with_cards(ci_results, tmp_path):

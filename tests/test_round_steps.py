@@ -128,3 +128,26 @@ def test_a_last_round_writes_no_scores_and_its_query_is_refused(tmp_path):
     assert all(getattr(scores, f) is None for f in ARRAY_FIELDS)
     with pytest.raises(ValueError, match="margin"):
         query_round(files.scores, labeled, {"strategy": "margin"}, 2, 1, 1, tmp_path / "q.json")
+
+
+def test_a_warm_start_fine_tunes_the_previous_rounds_weights_with_its_own_steps(tmp_path):
+    data, labeled = _dataset(tmp_path)
+    setup = {**SETUP, "method": {"strategy": "margin"}}
+    first = _files(tmp_path, "r0")
+    train_round(data, labeled, setup, ROUND0, first, CPU, score=False)
+    round1 = RoundId("toy", "own", 1, 1)
+    # lr 0: a fine-tuning that cannot move the weights returns the previous round's
+    warm = {**setup, "train": {**SETUP["train"], "warm_start": {"steps": 3, "lr": 0.0}}}
+    record = train_round(
+        data, labeled, warm, round1, _files(tmp_path, "r1"), CPU, score=False,
+        previous_model=first.model,
+    )  # fmt: skip
+    assert record["train_steps"] == 3  # the warm-start steps, not the fit's 2 epochs
+    before, after = (torch.load(tmp_path / f"{r}.pt", weights_only=True) for r in ("r0", "r1"))
+    float_keys = [k for k in before if before[k].is_floating_point() and "running" not in k]
+    assert float_keys and all(torch.equal(before[k], after[k]) for k in float_keys)
+    # without the previous weights the same round trains fresh ones with the fit's steps
+    cold = train_round(data, labeled, setup, round1, _files(tmp_path, "c1"), CPU, score=False)
+    assert cold["train_steps"] == 2
+    fresh = torch.load(tmp_path / "c1.pt", weights_only=True)
+    assert not all(torch.equal(before[k], fresh[k]) for k in float_keys)

@@ -61,6 +61,7 @@ rule train_initial:
 rule train:
     input:
         unpack(initial_fit),
+        unpack(warm_start_model),
         data=f"{RESULTS}/{{dataset}}/data/dataset.npz",
         labeled=labeled_input,
         labels=given_labels,

@@ -247,6 +247,15 @@ def initial_fit(wildcards):
     }
 
 
+def warm_start_model(wildcards):
+    """Round r >= 1 fine-tunes the method's round r - 1 weights when the dataset's
+    train.warm_start is set (its fit fields: fewer steps); else nothing."""
+    train = config["datasets"][wildcards.dataset]["train"]
+    if int(wildcards.round) == 0 or not train.get("warm_start"):
+        return {}
+    return {"previous_model": previous_round(wildcards, "model.pt")}
+
+
 def previous_labeled(wildcards):
     """The labeled set round r - 1 trained on (query of round r adds to it)."""
     return labeled_in_round(wildcards, int(wildcards.round) - 1)

@@ -25,6 +25,7 @@ run_job(
             else None
         ),
         score=snakemake.params.score,
+        previous_model=getattr(snakemake.input, "previous_model", None),
     ),
     preload=() if shared else ("spl_al.data", "spl_al.scoring", "spl_al.training"),
     pass_log=True,

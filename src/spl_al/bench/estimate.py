@@ -69,6 +69,9 @@ def plan_counts(config: dict, dataset: str) -> dict:
     n_pool, n_test, _ = split_sizes(entry)
     fit = {k: v for k, v in entry["train"]["fit"].items() if v is not None}
     cfg = TrainConfig.from_dict(fit)
+    # Rounds >= 1 fine-tune the previous round's weights with the warm-start fields.
+    warm = entry["train"].get("warm_start")
+    warm_cfg = TrainConfig.from_dict({**fit, **warm}) if warm else cfg
     counts = {"trainings": 0, "train_images": 0, "forward_images": 0, "queries": 0, "copies": 0}
     initial = set()
     for (method, seed), rounds in dataset_runs(config, dataset).items():
@@ -88,7 +91,8 @@ def plan_counts(config: dict, dataset: str) -> dict:
                 initial.add((seed, m))
             n = groups * (1 + m)
             counts["trainings"] += 1
-            counts["train_images"] += cfg.total_steps(n, groups) * min(cfg.batch_size, n)
+            c = warm_cfg if r > 0 else cfg
+            counts["train_images"] += c.total_steps(n, groups) * min(c.batch_size, n)
             counts["forward_images"] += n_test
     return counts
 

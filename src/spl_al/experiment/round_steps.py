@@ -123,23 +123,44 @@ class Fit:
 
 
 def fit_and_evaluate(
-    dataset, pool_idx, given, train_setup: dict, n_variants, seed, round_, compute: Compute, log
+    dataset,
+    pool_idx,
+    given,
+    train_setup: dict,
+    n_variants,
+    seed,
+    round_,
+    compute: Compute,
+    log,
+    *,
+    warm_from=None,
 ) -> Fit:
-    """Train a fresh model on the labeled groups ``pool_idx`` (their labels or masks
+    """Train a model on the labeled groups ``pool_idx`` (their labels or masks
     ``given``; ``n_variants`` variants each) and evaluate it on the test split.
 
     ``train_setup``: ``model`` (arch and parameters) and ``fit`` (a TrainConfig).
+    ``warm_from``: the weights of the method's previous round; when given, training
+    starts from them with ``fit`` updated by ``train_setup["warm_start"]`` (fewer
+    steps), else from fresh weights.
     """
     from spl_al.training import TrainConfig, evaluate, resolve_device, train
     from spl_al.training.precision import resolve_precision
 
     started = time.perf_counter()
-    cfg = TrainConfig.from_dict({**train_setup.get("fit", {}), "num_threads": compute.threads})
+    fit = train_setup.get("fit", {})
+    if warm_from is not None:
+        fit = {**fit, **(train_setup.get("warm_start") or {}), "from_scratch": False}
+    cfg = TrainConfig.from_dict({**fit, "num_threads": compute.threads})
     depth, valid = dataset.groups(dataset.train_idx[pool_idx], n_variants=n_variants)
     targets = np.repeat(given, depth.shape[1], axis=0)
     images = depth.reshape(-1, *depth.shape[2:])
+    model = (
+        model_for(dataset, train_setup["model"])
+        if warm_from is None
+        else load_model(dataset, train_setup["model"], warm_from).train()
+    )
     model = train(
-        model_for(dataset, train_setup["model"]),
+        model,
         images,
         valid.reshape(images.shape),
         targets,
@@ -381,6 +402,7 @@ def train_round(
     labels_path=None,
     initial: ModelFiles | None = None,
     score: bool = True,
+    previous_model=None,
 ) -> dict:
     """Train on round r's labeled groups, evaluate on the test split, then score the
     unlabeled pool for the next query (``score_pool``) with the model still in memory.
@@ -400,6 +422,8 @@ def train_round(
     torch nor the dataset: it copies the weights and the method's part of the scores.
     ``score``: False in a run's last round, whose scores no query reads: ``out.scores``
     then holds the index sets only (a query on it is refused, naming what is missing).
+    ``previous_model``: the weights of this method's round r - 1, when the dataset's
+    ``train.warm_start`` is set: the round fine-tunes them (``fit_and_evaluate``).
     """
     started = time.perf_counter()
     method = MethodSpec(name=which.method, **{"params": {}, **setup["method"]})
@@ -426,7 +450,9 @@ def train_round(
 
     compute.apply()
     dataset = Dataset.load(dataset_path, skip=SCENE_FIELDS)
-    fit = _round_model(dataset, pool_idx, setup, method, which, compute, log, labels_path, initial)
+    fit = _round_model(
+        dataset, pool_idx, setup, method, which, compute, log, labels_path, initial, previous_model
+    )
     save_model(fit.model, out.model)
     if score:
         scored = score_pool(
@@ -450,9 +476,12 @@ def train_round(
     return record
 
 
-def _round_model(dataset, pool_idx, setup, method, which, compute, log, labels_path, initial):
+def _round_model(
+    dataset, pool_idx, setup, method, which, compute, log, labels_path, initial, previous_model
+):
     """The round's model: round 0's shared fit loaded (``initial``), else one trained on
-    the labels of ``pool_idx`` (the dataset's, or a person's from ``labels_path``)."""
+    the labels of ``pool_idx`` (the dataset's, or a person's from ``labels_path``),
+    from fresh weights or from ``previous_model``'s."""
     m = _train_variants(method, dataset.n_variants)
     if initial is not None:
         record = read_json(initial.record)
@@ -465,7 +494,16 @@ def _round_model(dataset, pool_idx, setup, method, which, compute, log, labels_p
 
         given = labels_for(labels_path, pool_idx).astype(dataset.labels.dtype)
     return fit_and_evaluate(
-        dataset, pool_idx, given, setup["train"], m, which.seed, which.round, compute, log
+        dataset,
+        pool_idx,
+        given,
+        setup["train"],
+        m,
+        which.seed,
+        which.round,
+        compute,
+        log,
+        warm_from=previous_model,
     )
 
 
