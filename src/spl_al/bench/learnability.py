@@ -254,8 +254,8 @@ def _default_datasets(config_path: Path, names: list[str] | None, cache: Path):
     import yaml
 
     from spl_al.data import Dataset
+    from spl_al.data.variants import make_variants
     from spl_al.experiment.steps import make_dataset
-    from spl_al.variants import make_variants
 
     config = yaml.safe_load(config_path.read_text())
     for name, entry in config["datasets"].items():
@@ -321,7 +321,7 @@ def main(argv: list[str] | None = None) -> int:
 
     from spl_al.data import Dataset, load_folder
     from spl_al.data.digits import write_digits_folder
-    from spl_al.variants import make_variants
+    from spl_al.data.variants import make_variants
 
     cache = args.cache or Path(tempfile.mkdtemp(prefix="spl-al-learnability-"))
     cache.mkdir(parents=True, exist_ok=True)

@@ -166,7 +166,9 @@ def variants_sheet(dataset: Dataset, index: int, path) -> Path:
     if not 0 <= index < len(dataset):
         raise ValueError(f"index must be in 0..{len(dataset) - 1}, got {index!r}.")
     if dataset.n_variants == 0:
-        raise ValueError("the dataset has no variants; attach them with spl_al.variants first.")
+        raise ValueError(
+            "the dataset has no variants; attach them with spl_al.data.variants first."
+        )
     i = int(index)
     clean = dataset.clean_depth_m[i] if dataset.clean_depth_m is not None else None
     images = ([("clean depth", clean)] if clean is not None else []) + [
