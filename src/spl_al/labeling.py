@@ -34,6 +34,14 @@ import numpy as np
 from spl_al.atomic import atomic_write
 from spl_al.data.dataset import Dataset
 from spl_al.labels import IGNORE_INDEX
+from spl_al.plotting import (
+    class_colours,
+    condition_title,
+    depth_range,
+    figure,
+    save_png,
+    show_image,
+)
 
 LABELS_FORMAT = "spl-al-labels"
 
@@ -121,14 +129,11 @@ def _write_classes(dataset: Dataset, path: Path) -> None:
     with open(path, "w", newline="", encoding="utf-8") as f:
         writer = csv.writer(f)
         if dataset.task == "segmentation":
-            from matplotlib.colors import to_hex
-
-            from spl_al.data.pictures import _label_cmap
-
-            cmap = _label_cmap(len(dataset.classes))
             writer.writerow(["index", "name", "colour"])
-            for k, name in enumerate(dataset.classes):
-                writer.writerow([k, name, to_hex(cmap(k))])
+            for k, (name, colour) in enumerate(
+                zip(dataset.classes, class_colours(dataset.classes), strict=True)
+            ):
+                writer.writerow([k, name, colour])
             writer.writerow([IGNORE_INDEX, "(no label)", "#000000"])
         else:
             writer.writerow(["index", "name"])
@@ -139,42 +144,40 @@ def _write_classes(dataset: Dataset, path: Path) -> None:
 def _sample_picture(dataset: Dataset, i: int, path: Path) -> None:
     """The observed image and its variants on one depth scale, with a colour bar.
     Nothing of the sample's label is shown."""
-    from spl_al.data.pictures import _condition, _figure, _range, _save, _show
-
-    images = [(f"observed\n{_condition(dataset.msppp[i], dataset.sbr[i])}", dataset.depth_m[i])]
+    images = [
+        (f"observed\n{condition_title(dataset.msppp[i], dataset.sbr[i])}", dataset.depth_m[i])
+    ]
     for j in range(dataset.n_variants):
-        cond = _condition(dataset.variant_msppp[i, j], dataset.variant_sbr[i, j])
+        cond = condition_title(dataset.variant_msppp[i, j], dataset.variant_sbr[i, j])
         images.append((f"variant {j + 1}\n{cond}", dataset.variant_depth_m[i, j]))
     h, w = dataset.image_shape
     per_row = len(images) if w <= 1.5 * h else 1
     rows = -(-len(images) // per_row)
     cell = 1.8
-    fig = _figure(cell * per_row * w / h + 1.2, cell * rows + 0.6)
+    fig = figure(cell * per_row * w / h + 1.2, cell * rows + 0.6)
     axes = fig.subplots(rows, per_row, squeeze=False).ravel()
-    lo, hi = _range(dataset.depth_m[i])
+    lo, hi = depth_range(dataset.depth_m[i])
     for ax, (title, img) in zip(axes, images, strict=False):
-        _show(ax, img, lo, hi, title)
+        show_image(ax, img, lo, hi, title)
     for ax in axes[len(images) :]:
         ax.axis("off")
     fig.colorbar(axes[0].images[0], ax=list(axes), label="depth (m); black: no return")
     name = sample_file(dataset, i)
     fig.suptitle(f"sample {dataset.uid[i]}" + (f" ({name})" if name else ""), fontsize=9)
-    _save(fig, path)
+    save_png(fig, path)
 
 
 def _batch_sheet(dataset: Dataset, samples, path: Path) -> None:
-    from spl_al.data.pictures import _figure, _range, _save, _show
-
     n = max(len(samples), 1)
     h, w = dataset.image_shape
     cols = min(n, 6 if w <= 1.5 * h else 2)
     rows = -(-n // cols)
     cell = 1.3
-    fig = _figure(cell * cols * w / h + 0.4, cell * rows + 0.6)
+    fig = figure(cell * cols * w / h + 0.4, cell * rows + 0.6)
     axes = fig.subplots(rows, cols, squeeze=False).ravel()
     for ax, i in zip(axes, samples, strict=False):
-        lo, hi = _range(dataset.depth_m[i])
-        _show(ax, dataset.depth_m[i], lo, hi, f"sample {dataset.uid[i]}")
+        lo, hi = depth_range(dataset.depth_m[i])
+        show_image(ax, dataset.depth_m[i], lo, hi, f"sample {dataset.uid[i]}")
     for ax in axes[len(samples) :]:
         ax.axis("off")
     fig.suptitle(
@@ -182,7 +185,7 @@ def _batch_sheet(dataset: Dataset, samples, path: Path) -> None:
         "per sample, black: no return)",
         fontsize=9,
     )
-    _save(fig, path)
+    save_png(fig, path)
 
 
 # ---------------------------------------------------------------- label files

@@ -410,8 +410,8 @@ def robustness_report(
 
 
 def _empty_figure(text: str):
-    from spl_al.report.curves import _new_figure
+    from spl_al.plotting import new_figure
 
-    fig = _new_figure(4, 1.5)
+    fig = new_figure(4, 1.5)
     fig.text(0.5, 0.5, text, ha="center", va="center")
     return fig
