@@ -248,7 +248,7 @@ HEADER = ["dataset", "labeled groups", "linear ref.", "learner", "learner + vari
 # ---------------------------------------------------------------- command line
 
 
-def _default_datasets(config_path: Path, names: list[str] | None, cache: Path):
+def default_datasets(config_path: Path, names: list[str] | None, cache: Path):
     """(name, Dataset, model_cfg, fit_cfg) for the config's datasets, synthesised as
     the pipeline makes them (cached under ``cache``)."""
     import yaml
@@ -327,7 +327,7 @@ def main(argv: list[str] | None = None) -> int:
     cache.mkdir(parents=True, exist_ok=True)
     entries = []
     if not args.datasets:
-        entries = list(_default_datasets(args.config, args.only, cache))
+        entries = list(default_datasets(args.config, args.only, cache))
     # External data get the recipe of the config's first classification dataset.
     config = yaml.safe_load(args.config.read_text())
     cls_entry = next(e for e in config["datasets"].values() if e["task"] == "classification")

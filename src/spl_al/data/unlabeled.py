@@ -22,11 +22,11 @@ import numpy as np
 
 from spl_al.data.dataset import LEVELS, Dataset, sensor_to_dict
 from spl_al.data.external import (
-    _as_image,
-    _clean_depth,
-    _list_files,
-    _read_arrays,
-    _resize_nearest,
+    as_image,
+    list_files,
+    mask_unusable_depth,
+    read_arrays,
+    resize_nearest,
 )
 from spl_al.labels import IGNORE_INDEX, UNKNOWN_CLASS
 from spl_al.photon import SensorParams
@@ -64,16 +64,16 @@ def load_unlabeled_folder(
         raise ValueError("an unlabeled folder needs the class names to label with (classes).")
     if not root.is_dir():
         raise ValueError(f"{root}: no such folder.")
-    files = _list_files(root)
+    files = list_files(root)
     if not files:
         raise ValueError(f"{root}: no .npz/.npy/.png depth files found.")
     images, levels, msppp, sbr = [], [], [], []
     report = {"void_pixels_made": 0}
     for path in files:
-        arrays = _read_arrays(path, {"depth": depth_key}, ("depth",))
+        arrays = read_arrays(path, {"depth": depth_key}, ("depth",))
         scale = 1.0 if path.suffix.lower() == ".png" else depth_scale
-        depth, bad = _clean_depth(
-            _as_image(arrays["depth"], path, depth_key) * scale, sensor.max_depth_m
+        depth, bad = mask_unusable_depth(
+            as_image(arrays["depth"], path, depth_key) * scale, sensor.max_depth_m
         )
         report["void_pixels_made"] += bad["nonfinite"] + bad["negative"] + bad["beyond_reach"]
         images.append(depth)
@@ -84,7 +84,7 @@ def load_unlabeled_folder(
     if image_shape is None and len(shapes) > 1:
         raise ValueError(f"{root}: images have different shapes {shapes}; set image_shape (H, W).")
     shape = tuple(int(v) for v in image_shape) if image_shape is not None else shapes[0]
-    depth = np.stack([_resize_nearest(im, shape) for im in images]).astype(np.float32)
+    depth = np.stack([resize_nearest(im, shape) for im in images]).astype(np.float32)
     n = len(files)
     names = [str(p.relative_to(root)) for p in files]
     split = np.full(n, "train", dtype="<U5")
