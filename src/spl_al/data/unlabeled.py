@@ -28,6 +28,7 @@ from spl_al.data.external import (
     read_arrays,
     resize_nearest,
 )
+from spl_al.data.label_files import class_index, read_mask, read_rows
 from spl_al.labels import IGNORE_INDEX, UNKNOWN_CLASS
 from spl_al.photon import SensorParams
 
@@ -55,8 +56,6 @@ def load_unlabeled_folder(
         depth_scale: factor to metres of ``.npz``/``.npy`` depth (PNG is millimetres).
         sensor: SPL timing for variants; default ``SensorParams.paper_real()``.
     """
-    from spl_al.labeling import _class_index, _read_mask, _read_rows
-
     root = Path(root)
     sensor = SensorParams.paper_real() if sensor is None else sensor
     classes = [str(c) for c in (classes or [])]
@@ -94,7 +93,7 @@ def load_unlabeled_folder(
         labels = np.full(n, UNKNOWN_CLASS, dtype=np.int64)
     if seed_labels is not None:
         seed_labels = Path(seed_labels)
-        rows, header = _read_rows(seed_labels)
+        rows, header = read_rows(seed_labels)
         column = "mask" if task == "segmentation" else "label"
         if "file" not in header or column not in header:
             raise ValueError(
@@ -122,9 +121,9 @@ def load_unlabeled_folder(
                 probe = Dataset(
                     task, classes, depth[:1], labels[:1], ["test"], [np.nan], [np.nan], ["unknown"]
                 )
-                labels[k] = _read_mask(seed_labels, line, value, probe)
+                labels[k] = read_mask(seed_labels, line, value, probe)
             else:
-                labels[k] = _class_index(seed_labels, line, name, value, classes)
+                labels[k] = class_index(seed_labels, line, name, value, classes)
     bad_levels = sorted(set(levels) - {*LEVELS, "unknown"})
     if bad_levels:
         raise ValueError(f"{root}: files hold levels {bad_levels}; expected one of {LEVELS}.")

@@ -32,7 +32,8 @@ import numpy as np
 
 from spl_al.atomic import atomic_write_text
 from spl_al.data.dataset import Dataset
-from spl_al.label_studio.brush import mask_to_rle
+from spl_al.data.label_files import sample_file
+from spl_al.labeling.label_studio.brush import mask_to_rle
 from spl_al.plotting import class_colours, depth_cmap, depth_range
 
 CONFIG_FILE = "label_studio.xml"
@@ -146,8 +147,6 @@ def prediction(task: str, probs, valid, classes, model_version: str) -> dict:
 def batch_tasks(dataset: Dataset, samples, probs=None, model_version: str = "") -> list[dict]:
     """Label Studio tasks of dataset rows ``samples`` (``probs``: the model's
     probabilities of each, in the same order, for the pre-annotations; or None)."""
-    from spl_al.labeling import sample_file
-
     tasks = []
     for n, i in enumerate(np.asarray(samples, dtype=np.int64)):
         i = int(i)
