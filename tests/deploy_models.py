@@ -12,10 +12,10 @@ import numpy as np
 
 from spl_al.atomic import write_json
 from spl_al.data import make_classification_dataset, make_segmentation_dataset
+from spl_al.data.variants import make_variants
 from spl_al.deploy.card import RunFacts, build_card, card_path, write_card
 from spl_al.experiment.round_steps import model_for, save_model, write_initial_set
 from spl_al.training import evaluate
-from spl_al.variants import make_variants
 
 MODELS = {
     "classification": {"arch": "smallcnn", "input_pool": 2},

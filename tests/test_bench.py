@@ -13,7 +13,7 @@ import spl_al.bench
 import spl_al.bench.__main__ as bench_main
 from spl_al.bench import learnability, spread
 from spl_al.data import Dataset, make_classification_dataset
-from spl_al.variants import make_variants
+from spl_al.data.variants import make_variants
 
 ROOT = Path(__file__).resolve().parent.parent
 BENCH_MODULES = sorted(Path(spl_al.bench.__file__).parent.glob("*.py"))

@@ -217,7 +217,7 @@ def test_segmentation_dataset_and_points(seg_data):
 
 
 def test_pictures_are_png(cls_data, seg_data, tmp_path):
-    from spl_al.variants import make_variants
+    from spl_al.data.variants import make_variants
 
     for data, name in ((cls_data, "cls"), (seg_data, "seg")):
         sheet = contact_sheet(data, tmp_path / f"{name}_contact.png", per_class=2)

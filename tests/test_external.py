@@ -7,7 +7,7 @@ import pytest
 from PIL import Image
 
 from spl_al.data.external import load_folder
-from spl_al.variants import make_variants
+from spl_al.data.variants import make_variants
 
 CLASSES = ("bike", "fire_hydrant", "water bottle")
 

@@ -10,9 +10,10 @@ import pytest
 from PIL import Image
 
 from spl_al.data import Dataset
+from spl_al.data.label_files import labels_for, save_labels
 from spl_al.data.unlabeled import load_unlabeled_folder
 from spl_al.experiment.human import accept_labels
-from spl_al.labeling import labels_for, read_label_file, save_labels, write_batch
+from spl_al.labeling import read_label_file, write_batch
 from spl_al.labels import IGNORE_INDEX, UNKNOWN_CLASS
 
 CLASSES = ["car", "person", "bike"]
@@ -204,7 +205,7 @@ def test_segmentation_batch_proposes_mask_paths_and_lists_class_colours(tmp_path
 
 
 def test_seed_labels_with_only_test_rows_leave_round_0_to_a_batch(tmp_path):
-    from spl_al.labeling import lists_training_rows
+    from spl_al.data.label_files import lists_training_rows
 
     csv = tmp_path / "seed.csv"
     csv.write_text("file,label,split\na.npz,car,test\nb.npz,wall,test\n")

@@ -26,9 +26,10 @@ from label_studio_data import probabilities, segmentation_dataset
 from PIL import Image
 
 from spl_al.data import Dataset
+from spl_al.data.label_files import labels_for
 from spl_al.experiment.human import accept_labels
-from spl_al.label_studio import decode_rle, read_export, rle_to_mask
-from spl_al.labeling import labels_for, read_label_file, write_batch
+from spl_al.labeling import read_label_file, write_batch
+from spl_al.labeling.label_studio import decode_rle, read_export, rle_to_mask
 from spl_al.labels import IGNORE_INDEX
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -284,7 +285,7 @@ def test_accept_reads_an_export_in_place_of_the_csv_and_writes_nothing_when_refu
     before = [p for p in range(len(data.train_idx)) if p not in queried][:3]
     request = tmp_path / "query.json"
     request.write_text(json.dumps({"pool_indices": sorted(before + queried), "queried": queried}))
-    from spl_al.labeling import save_labels
+    from spl_al.data.label_files import save_labels
 
     save_labels(tmp_path / "before.npz", before, data.labels[data.train_idx[before]])
     csv_file, json_file = tmp_path / "labels/round1.csv", tmp_path / "labels/round1.json"

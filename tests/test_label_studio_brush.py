@@ -17,8 +17,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from spl_al.label_studio import decode_rle, encode_rle, mask_to_rle, rle_to_mask
-from spl_al.label_studio.brush import RLEError
+from spl_al.labeling.label_studio import decode_rle, encode_rle, mask_to_rle, rle_to_mask
+from spl_al.labeling.label_studio.brush import RLEError
 
 ROOT = Path(__file__).resolve().parents[1]
 FIXTURES = Path(__file__).parent / "fixtures" / "label_studio"

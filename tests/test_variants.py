@@ -6,7 +6,12 @@ import numpy as np
 import pytest
 
 from spl_al.data import Dataset, make_classification_dataset
-from spl_al.variants import VariantShard, attach_variants, default_conditions, generate_variants
+from spl_al.data.variants import (
+    VariantShard,
+    attach_variants,
+    default_conditions,
+    generate_variants,
+)
 
 
 @pytest.fixture(scope="module")
@@ -72,7 +77,7 @@ def test_variant_j_of_every_group_uses_condition_j(data, whole):
 
 def test_spread_conditions_is_a_permutation_whose_prefixes_spread():
     from spl_al.data import condition_set
-    from spl_al.variants import spread_conditions
+    from spl_al.data.variants import spread_conditions
 
     grid = condition_set({"high": 8, "low": 1}, [0.1, 1, 10])
     order = spread_conditions(grid)

@@ -15,7 +15,7 @@ from spl_al.config import (
 from spl_al.data.captures import CaptureOptions, capture_files, shard_count, shard_of
 from spl_al.data.external import folder_has_levels
 from spl_al.photon.io import CAPTURE_SUFFIXES
-from spl_al.labeling import lists_training_rows
+from spl_al.data.label_files import lists_training_rows
 from spl_al.experiment.warm import Server
 from spl_al.experiment.overview import estimate_minutes, jobs_line, plan_text
 from spl_al.experiment.plan import (

@@ -13,6 +13,6 @@ run_job(
         model_cfg=snakemake.params.model_cfg,
         model_version=snakemake.params.model_version,
     ),
-    preload=("matplotlib.pyplot", "spl_al.labeling", "spl_al.label_studio"),
+    preload=("matplotlib.pyplot", "spl_al.labeling", "spl_al.labeling.label_studio"),
     show=True,
 )

@@ -9,5 +9,5 @@ run_job(
         shard=int(snakemake.wildcards.shard),
         out_path=snakemake.output[0],
     ),
-    preload=("spl_al.data", "spl_al.variants"),
+    preload=("spl_al.data", "spl_al.data.variants"),
 )

@@ -8,6 +8,6 @@ run_job(
         shard_paths=snakemake.input.shards,
         out_path=snakemake.output[0],
     ),
-    preload=("spl_al.variants",),
+    preload=("spl_al.data.variants",),
     show=True,
 )

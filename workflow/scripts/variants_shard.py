@@ -10,6 +10,6 @@ run_job(
         out_path=snakemake.output[0],
         sspi_weights=snakemake.params.sspi_weights,
     ),
-    preload=("spl_al.variants",),
+    preload=("spl_al.data.variants",),
     show=True,
 )

@@ -20,7 +20,7 @@ from pathlib import Path
 from spl_al.bench.timing import markdown_table
 from spl_al.data import Dataset, make_classification_dataset, make_segmentation_dataset
 from spl_al.data.parallel import default_workers
-from spl_al.variants import make_variants
+from spl_al.data.variants import make_variants
 
 
 def _cpu_seconds() -> float:

@@ -113,8 +113,8 @@ def _mini_entry(entry: dict) -> tuple[dict, int]:
 def data_seconds_per_image(entry: dict, tmp: Path) -> tuple[float, float]:
     """(observed image, one variant) seconds per image, timed on a miniature."""
     from spl_al.data import Dataset
+    from spl_al.data.variants import generate_variants
     from spl_al.experiment.data_steps import make_dataset
-    from spl_al.variants import generate_variants
 
     mini, n = _mini_entry(entry)
     mini["source"] = "synthetic" if mini["source"] == "folder" else mini["source"]

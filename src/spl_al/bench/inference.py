@@ -68,7 +68,7 @@ def bench_one(task, model_cfg, shape, n_classes, threads, batch_size, repeats) -
     import torch
 
     from spl_al.deploy.bundle import onnx_session
-    from spl_al.deploy.export import NOT_EXPORTED, _trace
+    from spl_al.deploy.export import NOT_EXPORTED, write_onnx
     from spl_al.deploy.graph import DeployGraph
 
     torch.set_num_threads(threads)
@@ -84,7 +84,7 @@ def bench_one(task, model_cfg, shape, n_classes, threads, batch_size, repeats) -
     if getattr(model, "arch", "") not in NOT_EXPORTED:
         with tempfile.TemporaryDirectory() as folder:
             path = Path(folder) / "model.onnx"
-            _trace(model, path, shape)
+            write_onnx(model, path, shape)
             session = onnx_session(path, threads)
             out["onnxruntime"] = _time(
                 lambda d: session.run(None, {"depth_m": d}), single, batch, repeats

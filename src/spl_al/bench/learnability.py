@@ -248,14 +248,14 @@ HEADER = ["dataset", "labeled groups", "linear ref.", "learner", "learner + vari
 # ---------------------------------------------------------------- command line
 
 
-def _default_datasets(config_path: Path, names: list[str] | None, cache: Path):
+def default_datasets(config_path: Path, names: list[str] | None, cache: Path):
     """(name, Dataset, model_cfg, fit_cfg) for the config's datasets, synthesised as
     the pipeline makes them (cached under ``cache``)."""
     import yaml
 
     from spl_al.data import Dataset
+    from spl_al.data.variants import make_variants
     from spl_al.experiment.steps import make_dataset
-    from spl_al.variants import make_variants
 
     config = yaml.safe_load(config_path.read_text())
     for name, entry in config["datasets"].items():
@@ -321,13 +321,13 @@ def main(argv: list[str] | None = None) -> int:
 
     from spl_al.data import Dataset, load_folder
     from spl_al.data.digits import write_digits_folder
-    from spl_al.variants import make_variants
+    from spl_al.data.variants import make_variants
 
     cache = args.cache or Path(tempfile.mkdtemp(prefix="spl-al-learnability-"))
     cache.mkdir(parents=True, exist_ok=True)
     entries = []
     if not args.datasets:
-        entries = list(_default_datasets(args.config, args.only, cache))
+        entries = list(default_datasets(args.config, args.only, cache))
     # External data get the recipe of the config's first classification dataset.
     config = yaml.safe_load(args.config.read_text())
     cls_entry = next(e for e in config["datasets"].values() if e["task"] == "classification")

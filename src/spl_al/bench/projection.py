@@ -134,14 +134,14 @@ def protocol_images(config: dict, dataset: str) -> dict:
 
 def model_case(config: dict, dataset: str):
     """(task, model, model config, fit dict, image shape, n_classes) of a dataset."""
-    from spl_al.bench.training import _model
+    from spl_al.bench.training import case_model
 
     entry = config["datasets"][dataset]
     shape = tuple(entry["synthesis"]["image_shape"])
     _, _, n_classes = split_sizes(entry)
     model_cfg = {k: v for k, v in entry["train"].get("model", {}).items() if v is not None}
     fit = {k: v for k, v in entry["train"]["fit"].items() if v is not None}
-    model = _model(entry["task"], model_cfg, shape, n_classes)
+    model = case_model(entry["task"], model_cfg, shape, n_classes)
     return entry["task"], model, model_cfg, fit, shape, n_classes
 
 
@@ -150,10 +150,10 @@ def flops_per_image(task: str, model, shape, n_classes: int, batch: int = 8) -> 
     import torch
     from torch.utils.flop_counter import FlopCounterMode
 
-    from spl_al.bench.training import _data
+    from spl_al.bench.training import random_data
     from spl_al.models import model_input
 
-    depth, valid, targets = _data(task, shape, batch, n_classes)
+    depth, valid, targets = random_data(task, shape, batch, n_classes)
     x = model_input(model, depth, valid)
     y = torch.as_tensor(targets).long()
     model.train()

@@ -28,7 +28,7 @@ from pathlib import Path
 import numpy as np
 
 from spl_al.bench.learnability import (
-    _default_datasets,
+    default_datasets,
     learner_score,
     recipe_overrides,
     tuning_split,
@@ -81,7 +81,7 @@ def main(argv: list[str] | None = None) -> int:
     cache = args.cache or Path(tempfile.mkdtemp(prefix="spl-al-spread-"))
     cache.mkdir(parents=True, exist_ok=True)
     rows = []
-    for name, data, model_cfg, fit_cfg in _default_datasets(args.config, args.only, cache):
+    for name, data, model_cfg, fit_cfg in default_datasets(args.config, args.only, cache):
         model_cfg = {**model_cfg, **overrides["model"]}
         fit_cfg = {**fit_cfg, **overrides["fit"]}
         n_val = len(tuning_split(data, args.val_fraction, args.val_seed)[1])

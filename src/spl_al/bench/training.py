@@ -50,7 +50,8 @@ def _cases(config: dict, paper: dict) -> list[tuple[str, str, dict, dict, tuple[
     ]  # fmt: skip
 
 
-def _data(task: str, shape, n: int, n_classes: int, seed: int = 0):
+def random_data(task: str, shape, n: int, n_classes: int, seed: int = 0):
+    """(depth, valid, targets) of ``n`` random images: 10% voids, random labels (or masks)."""
     import numpy as np
 
     rng = np.random.default_rng(seed)
@@ -64,7 +65,9 @@ def _data(task: str, shape, n: int, n_classes: int, seed: int = 0):
     return depth, valid, targets
 
 
-def _model(task: str, model_cfg: dict, shape, n_classes: int):
+def case_model(task: str, model_cfg: dict, shape, n_classes: int):
+    """The model a bench case times: ``model_cfg`` built for ``shape`` (with the scanning
+    grid where the architecture needs one)."""
     from spl_al.models import build_model, needs_grid
 
     cfg = dict(model_cfg)
@@ -85,8 +88,8 @@ def measure(task, model_cfg, fit, shape, precision, threads, steps, device="cpu"
     torch.set_num_threads(threads)
     n_classes = 11 if task == "classification" else 8
     batch = int(fit.get("batch_size", 32))
-    depth, valid, targets = _data(task, shape, 4 * batch, n_classes)
-    model = _model(task, model_cfg, shape, n_classes)
+    depth, valid, targets = random_data(task, shape, 4 * batch, n_classes)
+    model = case_model(task, model_cfg, shape, n_classes)
     fit = {k: v for k, v in fit.items() if k not in ("epochs", "min_steps", "steps_per_group")}
     rates = []
     for run_steps in (2, steps):  # the first run warms up

@@ -127,7 +127,7 @@ def run(args: argparse.Namespace) -> str:
         data.save(args.out)
         return data.summary()
     if args.command == "variants":
-        from spl_al.variants import generate_variants
+        from spl_al.data.variants import generate_variants
 
         data = Dataset.load(args.dataset)
         shard = generate_variants(
@@ -136,7 +136,7 @@ def run(args: argparse.Namespace) -> str:
         shard.save(args.out)
         return f"{len(shard.indices)} samples x {args.n_variants} variants -> {args.out}"
     if args.command == "attach":
-        from spl_al.variants import attach_variants
+        from spl_al.data.variants import attach_variants
 
         data = attach_variants(Dataset.load(args.dataset), args.shards)
         data.save(args.out)

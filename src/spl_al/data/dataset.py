@@ -249,7 +249,7 @@ class Dataset:
 
     @property
     def n_variants(self) -> int:
-        """Variants per sample (M); 0 before ``spl_al.variants`` adds them."""
+        """Variants per sample (M); 0 before ``spl_al.data.variants`` adds them."""
         return 0 if self.variant_depth_m is None else int(self.variant_depth_m.shape[1])
 
     @property
@@ -292,7 +292,7 @@ class Dataset:
                 else f"has {self.n_variants} variants per image"
             )
             raise ValueError(
-                f"n_variants={m} requested but the dataset {have}; run spl_al.variants first."
+                f"n_variants={m} requested but the dataset {have}; run spl_al.data.variants first."
             )
         parts = [self.depth_m[idx][:, None]]
         if m:

@@ -68,7 +68,7 @@ def _read_png(path: Path) -> np.ndarray:
     return arr.astype(np.float64) / 1000.0
 
 
-def _read_arrays(
+def read_arrays(
     path: Path, keys: dict[str, str | None], required: tuple[str, ...]
 ) -> dict[str, np.ndarray]:
     """Arrays of one file by role ("depth", "clean", ...); ``required`` roles must exist."""
@@ -105,7 +105,9 @@ def _read_arrays(
         ) from None
 
 
-def _as_image(arr: np.ndarray, path: Path, what: str) -> np.ndarray:
+def as_image(arr: np.ndarray, path: Path, what: str) -> np.ndarray:
+    """``arr`` as a 2-D numeric image (singleton axes dropped); else a ValueError naming
+    ``path`` and ``what``."""
     a = np.asarray(arr)
     if a.ndim == 3 and 1 in (a.shape[0], a.shape[-1]):
         a = a.reshape([s for s in a.shape if s != 1] if a.shape.count(1) < 3 else a.shape[:2])
@@ -116,7 +118,7 @@ def _as_image(arr: np.ndarray, path: Path, what: str) -> np.ndarray:
     return a
 
 
-def _resize_nearest(image: np.ndarray, shape: tuple[int, int]) -> np.ndarray:
+def resize_nearest(image: np.ndarray, shape: tuple[int, int]) -> np.ndarray:
     """Nearest-neighbour resize (depth is never blended across edges; voids stay voids)."""
     h, w = image.shape
     rows = np.minimum(((np.arange(shape[0]) + 0.5) * h / shape[0]).astype(np.int64), h - 1)
@@ -124,7 +126,8 @@ def _resize_nearest(image: np.ndarray, shape: tuple[int, int]) -> np.ndarray:
     return image[rows[:, None], cols[None, :]]
 
 
-def _list_files(folder: Path) -> list[Path]:
+def list_files(folder: Path) -> list[Path]:
+    """The data files of ``folder`` (``DATA_SUFFIXES``, not hidden), sorted."""
     return sorted(
         p
         for p in folder.iterdir()
@@ -208,13 +211,13 @@ def _discover(root: Path, label_key) -> tuple[str, list[tuple[Path, str, Path | 
     if not root.is_dir():
         raise ValueError(f"{root}: no such folder.")
     subdirs = sorted(p for p in root.iterdir() if p.is_dir() and not p.name.startswith("."))
-    files = _list_files(root)
+    files = list_files(root)
     names = {p.name for p in subdirs}
     if {"depth", "labels"} <= names and label_key is None:
-        depth_files = _list_files(root / "depth")
+        depth_files = list_files(root / "depth")
         if not depth_files:
             raise ValueError(f"{root / 'depth'}: holds no .npz/.npy/.png files.")
-        labels = {p.stem: p for p in _list_files(root / "labels")}
+        labels = {p.stem: p for p in list_files(root / "labels")}
         out = []
         for f in depth_files:
             if f.stem not in labels:
@@ -229,7 +232,7 @@ def _discover(root: Path, label_key) -> tuple[str, list[tuple[Path, str, Path | 
             )
         return "segmentation-pairs", out
     if files and subdirs:
-        data_dirs = [d for d in subdirs if _list_files(d)]
+        data_dirs = [d for d in subdirs if list_files(d)]
         if data_dirs:
             raise ValueError(
                 f"{root}: holds both data files and class folders ({data_dirs[0].name}/); "
@@ -249,7 +252,7 @@ def _discover(root: Path, label_key) -> tuple[str, list[tuple[Path, str, Path | 
     if subdirs:
         out = []
         for d in subdirs:
-            class_files = _list_files(d)
+            class_files = list_files(d)
             if not class_files:
                 raise ValueError(f"{d}: class folder holds no .npz/.npy/.png files.")
             out += [(f, d.name, None) for f in class_files]
@@ -393,25 +396,25 @@ def _read_record(path: Path, cls: str, label_path: Path | None, opts: FolderOpti
     class and its stored conditions; every image checked to be (H, W) like the depth."""
     keys = opts.keys
     required = ("depth", "labels") if opts.label_key else ("depth",)
-    arrays = _read_arrays(path, keys, required)
+    arrays = read_arrays(path, keys, required)
     rec = {"path": path, "class": cls}
     scale = 1.0 if path.suffix.lower() == ".png" else opts.depth_scale
     what = opts.depth_key if path.suffix == ".npz" else "depth"
-    rec["depth"] = _as_image(arrays["depth"], path, what) * scale
+    rec["depth"] = as_image(arrays["depth"], path, what) * scale
     for role in ("clean", "reflectance"):
         if role in arrays:
-            rec[role] = _as_image(arrays[role], path, keys[role]).astype(np.float64) * (
+            rec[role] = as_image(arrays[role], path, keys[role]).astype(np.float64) * (
                 scale if role == "clean" else 1
             )
     if label_path is not None:
         lab = (
             _read_png_labels(label_path)
             if label_path.suffix.lower() == ".png"
-            else _read_arrays(label_path, {}, ())["depth"]
+            else read_arrays(label_path, {}, ())["depth"]
         )
-        rec["labels"] = _as_image(lab, label_path, "labels")
+        rec["labels"] = as_image(lab, label_path, "labels")
     elif "labels" in arrays:
-        rec["labels"] = _as_image(arrays["labels"], path, opts.label_key)
+        rec["labels"] = as_image(arrays["labels"], path, opts.label_key)
     for scalar in ("msppp", "sbr", "level"):
         if scalar in arrays:
             rec[scalar] = arrays[scalar]
@@ -457,21 +460,23 @@ def _resized_images(root: Path, records, shape, max_depth_m: float):
     }
     images = {"depth": [], "clean": [], "reflectance": [], "labels": []}
     for r in records:
-        d, bad = _clean_depth(r["depth"], max_depth_m)
+        d, bad = mask_unusable_depth(r["depth"], max_depth_m)
         for k in ("nonfinite", "negative", "zero", "beyond_reach"):
             report[k] += bad[k]
         if bad["nonfinite"] or bad["negative"] or bad["beyond_reach"]:
             report["files_with_bad_pixels"].append(str(r["path"].relative_to(root)))
-        images["depth"].append(_resize_nearest(d, shape))
+        images["depth"].append(resize_nearest(d, shape))
         if "clean" in r:
-            images["clean"].append(_resize_nearest(_clean_depth(r["clean"], np.inf)[0], shape))
+            images["clean"].append(
+                resize_nearest(mask_unusable_depth(r["clean"], np.inf)[0], shape)
+            )
         if "reflectance" in r:
             rf = np.where(
                 np.isfinite(r["reflectance"]) & (r["reflectance"] > 0), r["reflectance"], 0.0
             )
-            images["reflectance"].append(_resize_nearest(rf, shape))
+            images["reflectance"].append(resize_nearest(rf, shape))
         if "labels" in r:
-            images["labels"].append(_resize_nearest(r["labels"], shape))
+            images["labels"].append(resize_nearest(r["labels"], shape))
     return images, report
 
 
@@ -571,7 +576,7 @@ def _read_png_labels(path: Path) -> np.ndarray:
         raise ValueError(f"{path}: cannot be read as a PNG ({exc}).") from None
 
 
-def _clean_depth(depth: np.ndarray, max_depth_m: float) -> tuple[np.ndarray, dict[str, int]]:
+def mask_unusable_depth(depth: np.ndarray, max_depth_m: float) -> tuple[np.ndarray, dict[str, int]]:
     """Depth with every unusable pixel set to NaN, and the counts of each kind."""
     d = np.asarray(depth, dtype=np.float64)
     finite = np.isfinite(d)

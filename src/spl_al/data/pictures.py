@@ -6,8 +6,8 @@
   each titled with its condition (MSPPP, SBR) and void fraction.
 
 Depth is coloured per sample over a range shared by all its images (2nd to 98th
-percentile of the clean depth), voids are black. matplotlib is imported only here,
-through its object API (no pyplot state, no global backend change).
+percentile of the clean depth), voids are black; the figures, colours and ranges are
+``spl_al.plotting``'s (matplotlib imported only when a sheet is drawn).
 """
 
 from __future__ import annotations
@@ -16,58 +16,16 @@ from pathlib import Path
 
 import numpy as np
 
-from spl_al.atomic import atomic_write
 from spl_al.data.dataset import Dataset
 from spl_al.labels import IGNORE_INDEX
-
-_LEVEL_TAG = {"high": "H", "medium": "M", "low": "L", "unknown": "?"}
-
-
-def _figure(width_in: float, height_in: float):
-    from matplotlib.figure import Figure
-
-    return Figure(figsize=(width_in, height_in), dpi=100, layout="constrained")
-
-
-def _depth_cmap():
-    import matplotlib
-
-    return matplotlib.colormaps["turbo"].with_extremes(bad="black")
-
-
-def _label_cmap(n_classes: int):
-    import matplotlib
-    from matplotlib.colors import ListedColormap
-
-    base = matplotlib.colormaps["tab10" if n_classes <= 10 else "tab20"]
-    return ListedColormap([base(i % base.N) for i in range(n_classes)]).with_extremes(bad="black")
-
-
-def _range(*images) -> tuple[float, float]:
-    for img in images:
-        if img is not None and np.isfinite(img).any():
-            lo, hi = np.nanpercentile(img, [2, 98])
-            return float(lo), float(max(hi, lo + 1e-3))
-    return 0.0, 1.0
-
-
-def _show(ax, image, vmin, vmax, title=None, cmap=None):
-    ax.imshow(image, cmap=cmap or _depth_cmap(), vmin=vmin, vmax=vmax, interpolation="nearest")
-    ax.set_xticks([])
-    ax.set_yticks([])
-    if title:
-        ax.set_title(title, fontsize=7, pad=2)
-
-
-def _condition(msppp, sbr, level=None) -> str:
-    tag = f"{_LEVEL_TAG.get(str(level), '')} " if level is not None else ""
-    if not np.isfinite(msppp):
-        return f"{tag}condition unknown".strip()
-    return f"{tag}{msppp:.3g} ppp, SBR {sbr:.3g}"
-
-
-def _save(fig, path) -> Path:
-    return atomic_write(path, lambda tmp: fig.savefig(tmp, format="png"))
+from spl_al.plotting import (
+    condition_title,
+    depth_range,
+    figure,
+    label_cmap,
+    save_png,
+    show_image,
+)
 
 
 def _pick(dataset: Dataset, idx: np.ndarray, k: int, rng) -> np.ndarray:
@@ -90,7 +48,7 @@ def contact_sheet(dataset: Dataset, path, per_class: int = 4, seed: int = 0) -> 
     h, w = dataset.image_shape
     cell = 1.0
     n_rows = len(dataset.classes)
-    fig = _figure(cell * per_class * per_sample * w / h + 1.0, cell * n_rows + 0.4)
+    fig = figure(cell * per_class * per_sample * w / h + 1.0, cell * n_rows + 0.4)
     axes = fig.subplots(n_rows, per_class * per_sample, squeeze=False)
     for c, name in enumerate(dataset.classes):
         chosen = _pick(dataset, np.flatnonzero(dataset.labels == c), per_class, rng)
@@ -102,18 +60,18 @@ def contact_sheet(dataset: Dataset, path, per_class: int = 4, seed: int = 0) -> 
                 continue
             i = chosen[k]
             clean = dataset.clean_depth_m[i] if has_clean else None
-            lo, hi = _range(clean, dataset.depth_m[i])
+            lo, hi = depth_range(clean, dataset.depth_m[i])
             if has_clean:
-                _show(cells[0], clean, lo, hi, f"clean {np.nanmedian(clean):.3g} m")
-            obs_title = _condition(dataset.msppp[i], dataset.sbr[i], dataset.level[i])
-            _show(cells[-1], dataset.depth_m[i], lo, hi, obs_title)
+                show_image(cells[0], clean, lo, hi, f"clean {np.nanmedian(clean):.3g} m")
+            obs_title = condition_title(dataset.msppp[i], dataset.sbr[i], dataset.level[i])
+            show_image(cells[-1], dataset.depth_m[i], lo, hi, obs_title)
         axes[c, 0].set_ylabel(name, fontsize=8)
     fig.suptitle(
         f"{dataset.meta.get('source', '')} {dataset.task}: clean depth | observed SPL image "
         "(colour: depth per sample, black: void)",
         fontsize=9,
     )
-    return _save(fig, path)
+    return save_png(fig, path)
 
 
 def _segmentation_sheet(dataset: Dataset, path, n: int, rng) -> Path:
@@ -122,20 +80,20 @@ def _segmentation_sheet(dataset: Dataset, path, n: int, rng) -> Path:
     has_clean = dataset.clean_depth_m is not None
     cols = 3 if has_clean else 2
     cell = 1.1
-    fig = _figure(cell * cols * w / h + 0.6, cell * max(len(chosen), 1) + 0.9)
+    fig = figure(cell * cols * w / h + 0.6, cell * max(len(chosen), 1) + 0.9)
     axes = fig.subplots(max(len(chosen), 1), cols, squeeze=False)
-    cmap = _label_cmap(len(dataset.classes))
+    cmap = label_cmap(len(dataset.classes))
     for r, i in enumerate(chosen):
         clean = dataset.clean_depth_m[i] if has_clean else None
-        lo, hi = _range(clean, dataset.depth_m[i])
+        lo, hi = depth_range(clean, dataset.depth_m[i])
         if has_clean:
-            _show(axes[r, 0], clean, lo, hi, "clean depth" if r == 0 else None)
-        obs = _condition(dataset.msppp[i], dataset.sbr[i], dataset.level[i])
-        _show(axes[r, cols - 2], dataset.depth_m[i], lo, hi, f"observed: {obs}")
+            show_image(axes[r, 0], clean, lo, hi, "clean depth" if r == 0 else None)
+        obs = condition_title(dataset.msppp[i], dataset.sbr[i], dataset.level[i])
+        show_image(axes[r, cols - 2], dataset.depth_m[i], lo, hi, f"observed: {obs}")
         labels = np.where(
             dataset.labels[i] == IGNORE_INDEX, np.nan, dataset.labels[i].astype(float)
         )
-        _show(
+        show_image(
             axes[r, cols - 1],
             labels,
             -0.5,
@@ -147,7 +105,7 @@ def _segmentation_sheet(dataset: Dataset, path, n: int, rng) -> Path:
     fig.suptitle(
         f"{dataset.meta.get('source', '')} segmentation: depth (black: void) and labels", fontsize=9
     )
-    return _save(fig, path)
+    return save_png(fig, path)
 
 
 def _legend(fig, classes, cmap) -> None:
@@ -166,17 +124,19 @@ def variants_sheet(dataset: Dataset, index: int, path) -> Path:
     if not 0 <= index < len(dataset):
         raise ValueError(f"index must be in 0..{len(dataset) - 1}, got {index!r}.")
     if dataset.n_variants == 0:
-        raise ValueError("the dataset has no variants; attach them with spl_al.variants first.")
+        raise ValueError(
+            "the dataset has no variants; attach them with spl_al.data.variants first."
+        )
     i = int(index)
     clean = dataset.clean_depth_m[i] if dataset.clean_depth_m is not None else None
     images = ([("clean depth", clean)] if clean is not None else []) + [
         (
-            f"observed\n{_condition(dataset.msppp[i], dataset.sbr[i], dataset.level[i])}",
+            f"observed\n{condition_title(dataset.msppp[i], dataset.sbr[i], dataset.level[i])}",
             dataset.depth_m[i],
         )
     ]
     for j in range(dataset.n_variants):
-        cond = _condition(dataset.variant_msppp[i, j], dataset.variant_sbr[i, j])
+        cond = condition_title(dataset.variant_msppp[i, j], dataset.variant_sbr[i, j])
         images.append((f"variant {j + 1}\n{cond}", dataset.variant_depth_m[i, j]))
     seg = dataset.task == "segmentation"
     h, w = dataset.image_shape
@@ -184,18 +144,18 @@ def variants_sheet(dataset: Dataset, index: int, path) -> Path:
     per_row = n if w <= 1.5 * h else 2
     rows = -(-n // per_row)
     cell = 1.6
-    fig = _figure(cell * per_row * w / h, cell * rows + 0.6)
+    fig = figure(cell * per_row * w / h, cell * rows + 0.6)
     axes = fig.subplots(rows, per_row, squeeze=False).ravel()
-    lo, hi = _range(clean, dataset.depth_m[i])
+    lo, hi = depth_range(clean, dataset.depth_m[i])
     for ax, (title, img) in zip(axes, images, strict=False):
         voids = 1 - np.isfinite(img).mean()
-        _show(ax, img, lo, hi, f"{title}, {voids:.0%} void")
+        show_image(ax, img, lo, hi, f"{title}, {voids:.0%} void")
     if seg:
-        cmap = _label_cmap(len(dataset.classes))
+        cmap = label_cmap(len(dataset.classes))
         labels = np.where(
             dataset.labels[i] == IGNORE_INDEX, np.nan, dataset.labels[i].astype(float)
         )
-        _show(axes[len(images)], labels, -0.5, len(dataset.classes) - 0.5, "labels", cmap)
+        show_image(axes[len(images)], labels, -0.5, len(dataset.classes) - 0.5, "labels", cmap)
         _legend(fig, dataset.classes, cmap)
     for ax in axes[n:]:
         ax.axis("off")
@@ -203,4 +163,4 @@ def variants_sheet(dataset: Dataset, index: int, path) -> Path:
     fig.suptitle(
         f"sample {i} ({name}): observed image and its {dataset.n_variants} SIV variants", fontsize=9
     )
-    return _save(fig, path)
+    return save_png(fig, path)

@@ -288,7 +288,7 @@ def make_classification_dataset(
 
     Returns:
         Dataset with observed depth and reflectivity, clean depth and reflectance,
-        object masks, and no variants yet (``spl_al.variants`` adds them).
+        object masks, and no variants yet (``spl_al.data.variants`` adds them).
     """
     classes = _check_classes(classes)
     protocol, scene_options = SynthesisProtocol.take(options)

@@ -22,12 +22,13 @@ import numpy as np
 
 from spl_al.data.dataset import LEVELS, Dataset, sensor_to_dict
 from spl_al.data.external import (
-    _as_image,
-    _clean_depth,
-    _list_files,
-    _read_arrays,
-    _resize_nearest,
+    as_image,
+    list_files,
+    mask_unusable_depth,
+    read_arrays,
+    resize_nearest,
 )
+from spl_al.data.label_files import class_index, read_mask, read_rows
 from spl_al.labels import IGNORE_INDEX, UNKNOWN_CLASS
 from spl_al.photon import SensorParams
 
@@ -55,8 +56,6 @@ def load_unlabeled_folder(
         depth_scale: factor to metres of ``.npz``/``.npy`` depth (PNG is millimetres).
         sensor: SPL timing for variants; default ``SensorParams.paper_real()``.
     """
-    from spl_al.labeling import _class_index, _read_mask, _read_rows
-
     root = Path(root)
     sensor = SensorParams.paper_real() if sensor is None else sensor
     classes = [str(c) for c in (classes or [])]
@@ -64,16 +63,16 @@ def load_unlabeled_folder(
         raise ValueError("an unlabeled folder needs the class names to label with (classes).")
     if not root.is_dir():
         raise ValueError(f"{root}: no such folder.")
-    files = _list_files(root)
+    files = list_files(root)
     if not files:
         raise ValueError(f"{root}: no .npz/.npy/.png depth files found.")
     images, levels, msppp, sbr = [], [], [], []
     report = {"void_pixels_made": 0}
     for path in files:
-        arrays = _read_arrays(path, {"depth": depth_key}, ("depth",))
+        arrays = read_arrays(path, {"depth": depth_key}, ("depth",))
         scale = 1.0 if path.suffix.lower() == ".png" else depth_scale
-        depth, bad = _clean_depth(
-            _as_image(arrays["depth"], path, depth_key) * scale, sensor.max_depth_m
+        depth, bad = mask_unusable_depth(
+            as_image(arrays["depth"], path, depth_key) * scale, sensor.max_depth_m
         )
         report["void_pixels_made"] += bad["nonfinite"] + bad["negative"] + bad["beyond_reach"]
         images.append(depth)
@@ -84,7 +83,7 @@ def load_unlabeled_folder(
     if image_shape is None and len(shapes) > 1:
         raise ValueError(f"{root}: images have different shapes {shapes}; set image_shape (H, W).")
     shape = tuple(int(v) for v in image_shape) if image_shape is not None else shapes[0]
-    depth = np.stack([_resize_nearest(im, shape) for im in images]).astype(np.float32)
+    depth = np.stack([resize_nearest(im, shape) for im in images]).astype(np.float32)
     n = len(files)
     names = [str(p.relative_to(root)) for p in files]
     split = np.full(n, "train", dtype="<U5")
@@ -94,7 +93,7 @@ def load_unlabeled_folder(
         labels = np.full(n, UNKNOWN_CLASS, dtype=np.int64)
     if seed_labels is not None:
         seed_labels = Path(seed_labels)
-        rows, header = _read_rows(seed_labels)
+        rows, header = read_rows(seed_labels)
         column = "mask" if task == "segmentation" else "label"
         if "file" not in header or column not in header:
             raise ValueError(
@@ -122,9 +121,9 @@ def load_unlabeled_folder(
                 probe = Dataset(
                     task, classes, depth[:1], labels[:1], ["test"], [np.nan], [np.nan], ["unknown"]
                 )
-                labels[k] = _read_mask(seed_labels, line, value, probe)
+                labels[k] = read_mask(seed_labels, line, value, probe)
             else:
-                labels[k] = _class_index(seed_labels, line, name, value, classes)
+                labels[k] = class_index(seed_labels, line, name, value, classes)
     bad_levels = sorted(set(levels) - {*LEVELS, "unknown"})
     if bad_levels:
         raise ValueError(f"{root}: files hold levels {bad_levels}; expected one of {LEVELS}.")

@@ -149,7 +149,7 @@ def _input_kind(cls, params: dict) -> str:
 
 def _data_section(dataset, facts: RunFacts, rows, n_variants: int) -> dict:
     from spl_al.data.dataset import sensor_to_dict
-    from spl_al.label_studio.tasks import class_colours
+    from spl_al.plotting import class_colours
 
     return {
         "name": facts.dataset,

@@ -124,7 +124,9 @@ def check_onnx(onnx_path, model, depth_m, valid, batch_size: int = 64) -> dict:
     }
 
 
-def _trace(model, tmp: Path, shape) -> None:
+def write_onnx(model, tmp: Path, shape) -> None:
+    """Export ``model`` behind its preprocessing (``DeployGraph``) to the ONNX file ``tmp``:
+    opset ``OPSET``, dynamic batch, traced on a batch of two ``shape`` images."""
     import torch
 
     from spl_al.deploy.graph import INPUT_NAME, OUTPUT_NAMES, DeployGraph
@@ -193,7 +195,7 @@ def export_onnx(model_path, out_path, dataset_path=None, card=None, log=print) -
     os.close(fd)
     tmp = Path(name)
     try:
-        _trace(model, tmp, deployed.image_shape)
+        write_onnx(model, tmp, deployed.image_shape)
         check = check_onnx(tmp, model, depth, valid)
         log(
             f"{out_path}: onnxruntime vs torch on {check['n_samples']} test samples: max "

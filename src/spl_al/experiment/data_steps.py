@@ -145,8 +145,8 @@ def make_variant_shard(
     (one timed frame x the shard's variants) is printed first, into the job log.
     """
     from spl_al.data import Dataset
+    from spl_al.data.variants import generate_variants, shard_indices
     from spl_al.photon import SensorParams
-    from spl_al.variants import generate_variants, shard_indices
 
     dataset = Dataset.load(observed_path)
     sensor = getattr(SensorParams, variants["sensor"])() if variants.get("sensor") else None
@@ -181,8 +181,8 @@ def _announce_sspi_shard(dataset, sensor, conditions, n_frames: int, sspi_weight
     reconstructed on their returns' bounding box, so small objects take less."""
     import os
 
+    from spl_al.data.variants import default_conditions, variants_of_image
     from spl_al.photon.sspi.weights import ENV_VAR, weights_folder
-    from spl_al.variants import default_conditions, variants_of_image
 
     os.environ[ENV_VAR] = str(weights_folder(sspi_weights).resolve())
     if n_frames == 0:
@@ -214,7 +214,7 @@ def _announce_sspi_shard(dataset, sensor, conditions, n_frames: int, sspi_weight
 def merge_variants(observed_path, shard_paths, out_path) -> dict:
     """Attach every shard's variants to the observed dataset and save the whole."""
     from spl_al.data import Dataset
-    from spl_al.variants import VariantShard, attach_variants
+    from spl_al.data.variants import VariantShard, attach_variants
 
     dataset = attach_variants(
         Dataset.load(observed_path), [VariantShard.load(p) for p in shard_paths]

@@ -37,7 +37,7 @@ def initial_set(
     if oracle != "human":
         return steps.initial_set(dataset_path, al, seed, out_path)
     from spl_al.data import Dataset
-    from spl_al.labeling import listed_samples
+    from spl_al.data.label_files import listed_samples
     from spl_al.pool import initial_labeled_set
 
     if al.get("stratified_initial"):
@@ -156,7 +156,8 @@ def accept_labels(
     (a Label Studio JSON export); both present is refused.
     """
     from spl_al.data import SCENE_FIELDS, Dataset
-    from spl_al.labeling import load_labels, read_label_file, save_labels
+    from spl_al.data.label_files import load_labels, save_labels
+    from spl_al.labeling import read_label_file
 
     record = read_json(request_path)
     asked = np.asarray(_asked(record), dtype=np.int64)

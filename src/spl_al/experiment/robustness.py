@@ -8,7 +8,7 @@ Three steps, one per workflow rule:
    from their clean scenes, exactly as the observed images were made
    (``spl_al.data.observe`` with the dataset's sensor model); data without clean
    depth (real folders) are re-imaged by SIV from the observed image and its
-   reconstructed reflectivity (``spl_al.variants``): what the grid then shows is the
+   reconstructed reflectivity (``spl_al.data.variants``): what the grid then shows is the
    model under SIV's imitation of a condition, and every output says so
    (``source``: "clean" or "siv").
 2. ``evaluate_grid``: one method, every seed: each seed's final-round ``model.pt`` on
@@ -105,7 +105,7 @@ def reimage(dataset, idx: np.ndarray, msppp: float, sbr: float, seed: int):
             range_compensated=compensated,
         )
         return depth, "clean"
-    # SIV (Algorithm 1) of each observed image at (msppp, sbr), as spl_al.variants does:
+    # SIV (Algorithm 1) of each observed image at (msppp, sbr), as spl_al.data.variants does:
     # its reconstructed depth and reflectivity through the photon engine again.
     out = np.full((n, *dataset.image_shape), np.nan, np.float32)
     for k, i in enumerate(idx):
@@ -410,8 +410,8 @@ def robustness_report(
 
 
 def _empty_figure(text: str):
-    from spl_al.report.curves import _new_figure
+    from spl_al.plotting import new_figure
 
-    fig = _new_figure(4, 1.5)
+    fig = new_figure(4, 1.5)
     fig.text(0.5, 0.5, text, ha="center", va="center")
     return fig

@@ -415,7 +415,7 @@ def train_round(
     ``train_steps``, and the images they drew, ``images_seen``) and the scores.
 
     The training labels are the dataset's (the simulated oracle), or with
-    ``labels_path`` the ones a person gave (``spl_al.labeling.save_labels``).
+    ``labels_path`` the ones a person gave (``spl_al.data.label_files.save_labels``).
     ``initial``: ``train_initial``'s files: round 0's model, trained once for every
     method that trains like this one, is used instead of training again (the same
     seed and images give the same weights). With its scores this step needs neither
@@ -490,7 +490,7 @@ def _round_model(
     if labels_path is None:
         given = dataset.labels[dataset.train_idx[pool_idx]]
     else:
-        from spl_al.labeling import labels_for
+        from spl_al.data.label_files import labels_for
 
         given = labels_for(labels_path, pool_idx).astype(dataset.labels.dtype)
     return fit_and_evaluate(

@@ -22,7 +22,7 @@ def _conv_bn(c_in: int, c_out: int, kernel: int, stride: int) -> list[nn.Module]
     ]
 
 
-def _init_conv_bn(module: nn.Module) -> None:
+def init_conv_bn(module: nn.Module) -> None:
     """He initialisation for convolutions, unit/zero batch norm, default linear layers."""
     for m in module.modules():
         if isinstance(m, nn.Conv2d | nn.ConvTranspose2d):
@@ -64,7 +64,7 @@ class _PooledClassifier(nn.Module):
         self.init_weights()
 
     def init_weights(self) -> None:
-        _init_conv_bn(self)
+        init_conv_bn(self)
 
     def trunk(self, x: torch.Tensor) -> torch.Tensor:
         raise NotImplementedError

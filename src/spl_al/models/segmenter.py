@@ -16,7 +16,7 @@ import torch
 import torch.nn.functional as F
 from torch import nn
 
-from spl_al.models.classifier import _init_conv_bn
+from spl_al.models.classifier import init_conv_bn
 
 
 def _double_conv(c_in: int, c_out: int) -> nn.Sequential:
@@ -83,7 +83,7 @@ class UNet(nn.Module):
 
     def init_weights(self) -> None:
         """Re-initialise convolutions and batch norms (He init, unit scale, zero shift)."""
-        _init_conv_bn(self)
+        init_conv_bn(self)
 
     def forward(self, x: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
         """x (B, 2, H, W) -> logits (B, C, H, W), features (B, d, H, W)."""

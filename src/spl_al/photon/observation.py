@@ -36,7 +36,7 @@ import numpy as np
 
 from spl_al.photon.events import PhotonEvents
 from spl_al.photon.sensor import SensorParams
-from spl_al.photon.simulate import _check_condition, check_scene
+from spl_al.photon.simulate import check_condition, check_scene
 
 _NEIGHBOURS = ((-1, 0), (1, 0), (0, -1), (0, 1))
 
@@ -150,7 +150,7 @@ def observe_photons(
         PhotonEvents (signal first, then background) over the whole frame.
     """
     model = ObservationModel() if model is None else model
-    msppp, sbr = _check_condition(msppp, sbr)
+    msppp, sbr = check_condition(msppp, sbr)
     depth, refl, valid, t_obs = check_scene(depth_m, reflectance, valid, sensor)
     shape = valid.shape
     rate = msppp * refl  # (rows, cols), 0 without a return

@@ -66,7 +66,8 @@ def check_scene(depth_m, reflectance, valid, sensor: SensorParams):
     return depth, refl, valid, t_obs
 
 
-def _check_condition(msppp, sbr) -> tuple[float, float]:
+def check_condition(msppp, sbr) -> tuple[float, float]:
+    """(msppp, sbr) as floats; a ValueError unless MSPPP is finite and > 0 and SBR > 0."""
     msppp = float(msppp)
     sbr = float(sbr)
     if not (np.isfinite(msppp) and msppp > 0):
@@ -110,7 +111,7 @@ def simulate_photons(
     Returns:
         PhotonEvents with signal events first, then background events.
     """
-    msppp, sbr = _check_condition(msppp, sbr)
+    msppp, sbr = check_condition(msppp, sbr)
     _, refl, valid, t_obs = check_scene(depth_m, reflectance, valid, sensor)
     pix = np.flatnonzero(valid)
     signal_rate = msppp * refl.ravel()[pix]

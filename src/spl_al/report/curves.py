@@ -14,6 +14,7 @@ from collections.abc import Mapping, Sequence
 import numpy as np
 import pandas as pd
 
+from spl_al.plotting import new_figure
 from spl_al.report.aggregate import method_curves
 from spl_al.report.display import (
     FULL_METHOD,
@@ -112,15 +113,6 @@ def _with_partial_key(handles: list, names: list[str], partial: bool) -> tuple[l
     return [*handles, key], [*names, "fewer seeds (hollow)"]
 
 
-def _new_figure(width_in: float, height_in: float):
-    from matplotlib.backends.backend_agg import FigureCanvasAgg
-    from matplotlib.figure import Figure
-
-    fig = Figure(figsize=(width_in, height_in), layout="constrained")
-    FigureCanvasAgg(fig)
-    return fig
-
-
 def curves_figure(
     df: pd.DataFrame,
     *,
@@ -145,7 +137,7 @@ def curves_figure(
         raise ValueError(f"level must be one of {list(LEVELS)}, got {level!r}.")
     value_col = "value" if level is None else f"level_{level}"
     groups = dict(panels) if panels else {"": _draw_order(d, methods)}
-    fig = _new_figure(6.4 if len(groups) == 1 else 5.2 * len(groups), 4.4)
+    fig = new_figure(6.4 if len(groups) == 1 else 5.2 * len(groups), 4.4)
     axes = fig.subplots(1, len(groups), sharey=True, squeeze=False)[0]
     partial = False
     for ax, (name, members) in zip(axes, groups.items(), strict=True):
@@ -184,7 +176,7 @@ def level_curves_figure(
     """
     d = one_dataset(df, dataset)
     order = _draw_order(d, methods)
-    fig = _new_figure(12.0, 4.0)
+    fig = new_figure(12.0, 4.0)
     axes = fig.subplots(1, len(LEVELS), sharey=True)
     partial = False
     for ax, level in zip(axes, LEVELS, strict=True):

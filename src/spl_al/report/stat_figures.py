@@ -1,6 +1,6 @@
 """Figures of the paired statistics: AUBC with intervals, robustness heatmaps.
 
-matplotlib is imported only when a figure is made (``curves._new_figure``).
+matplotlib is imported only when a figure is made (``spl_al.plotting.new_figure``).
 """
 
 from __future__ import annotations
@@ -10,7 +10,7 @@ from collections.abc import Sequence
 import numpy as np
 import pandas as pd
 
-from spl_al.report.curves import _new_figure
+from spl_al.plotting import new_figure
 from spl_al.report.display import METRIC_LABELS, method_colors, method_label, ordered_methods
 from spl_al.report.records import one_dataset
 from spl_al.report.stats import aubc_per_seed, mean_interval, span_text
@@ -31,7 +31,7 @@ def aubc_figure(df: pd.DataFrame, methods: Sequence[str] | None = None, dataset=
     methods = list(methods) if methods is not None else ordered_methods(d["method"])
     areas = aubc_per_seed(d[d["method"].isin(methods)])
     colors = method_colors(methods)
-    fig = _new_figure(6.4, 0.5 * len(methods) + 1.6)
+    fig = new_figure(6.4, 0.5 * len(methods) + 1.6)
     ax = fig.add_subplot()
     for y, method in enumerate(methods):
         values = 100 * areas.loc[areas["method"] == method, "aubc"].to_numpy()
@@ -79,7 +79,7 @@ def heatmap_figure(cells: pd.DataFrame, *, note: str = ""):
     sbr = np.sort(cells["sbr"].unique())
     cols = min(3, len(methods))
     rows = -(-len(methods) // cols)
-    fig = _new_figure(3.4 * cols + 0.8, 2.9 * rows + 0.9)
+    fig = new_figure(3.4 * cols + 0.8, 2.9 * rows + 0.9)
     lo, hi = float(np.nanmin(cells["mean"])), float(np.nanmax(cells["mean"]))
     image = None
     for k, method in enumerate(methods):
@@ -118,7 +118,7 @@ def difference_figure(diff: pd.DataFrame, *, note: str = ""):
     interval spans zero is hatched and its number greyed."""
     msppp = np.sort(diff["msppp"].unique())
     sbr = np.sort(diff["sbr"].unique())
-    fig = _new_figure(5.2, 4.2)
+    fig = new_figure(5.2, 4.2)
     ax = fig.add_subplot()
     grid = _grid(diff, msppp, sbr, "diff")
     bound = float(np.nanmax(np.abs(grid))) if np.isfinite(grid).any() else 1.0

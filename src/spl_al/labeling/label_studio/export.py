@@ -31,7 +31,7 @@ from pathlib import Path
 import numpy as np
 
 from spl_al.data.dataset import Dataset
-from spl_al.label_studio.brush import RLEError, rle_to_mask
+from spl_al.labeling.label_studio.brush import RLEError, rle_to_mask
 from spl_al.labels import IGNORE_INDEX
 
 

@@ -32,23 +32,15 @@ import numpy as np
 
 from spl_al.atomic import atomic_write_text
 from spl_al.data.dataset import Dataset
-from spl_al.label_studio.brush import mask_to_rle
+from spl_al.data.label_files import sample_file
+from spl_al.labeling.label_studio.brush import mask_to_rle
+from spl_al.plotting import class_colours, depth_cmap, depth_range
 
 CONFIG_FILE = "label_studio.xml"
 TASKS_FILE = "label_studio.json"
 CONTROL = "label"  # the name of the Choices / BrushLabels tag
 IMAGE = "image"  # the name of the Image tag that is labeled
 _GAP_PX = 2  # white columns between the pictures of the variants strip
-
-
-def class_colours(classes) -> list[str]:
-    """The colour of each class (hex), as in classes.csv and the pictures."""
-    from matplotlib.colors import to_hex
-
-    from spl_al.data.pictures import _label_cmap
-
-    cmap = _label_cmap(len(classes))
-    return [to_hex(cmap(k)) for k in range(len(classes))]
 
 
 def labeling_config(task: str, classes, variants: bool = True) -> str:
@@ -84,11 +76,9 @@ def labeling_config(task: str, classes, variants: bool = True) -> str:
 
 def _colourise(depth: np.ndarray, lo: float, hi: float) -> np.ndarray:
     """(H, W) depth -> (H, W, 3) uint8 RGB: turbo from ``lo`` to ``hi``, black no return."""
-    from spl_al.data.pictures import _depth_cmap
-
     valid = np.isfinite(depth) & (depth > 0)
     scaled = np.clip((np.where(valid, depth, lo) - lo) / (hi - lo), 0.0, 1.0)
-    rgb = (_depth_cmap()(scaled)[..., :3] * 255).round().astype(np.uint8)
+    rgb = (depth_cmap()(scaled)[..., :3] * 255).round().astype(np.uint8)
     rgb[~valid] = 0
     return rgb
 
@@ -103,9 +93,7 @@ def _png_url(rgb: np.ndarray) -> str:
 
 def _pictures(dataset: Dataset, i: int) -> tuple[str, str | None]:
     """Data URLs of sample ``i``'s observed image and of its variants strip (or None)."""
-    from spl_al.data.pictures import _range
-
-    lo, hi = _range(dataset.depth_m[i])
+    lo, hi = depth_range(dataset.depth_m[i])
     observed = _colourise(np.asarray(dataset.depth_m[i], np.float32), lo, hi)
     if not dataset.n_variants:
         return _png_url(observed), None
@@ -159,8 +147,6 @@ def prediction(task: str, probs, valid, classes, model_version: str) -> dict:
 def batch_tasks(dataset: Dataset, samples, probs=None, model_version: str = "") -> list[dict]:
     """Label Studio tasks of dataset rows ``samples`` (``probs``: the model's
     probabilities of each, in the same order, for the pre-annotations; or None)."""
-    from spl_al.labeling import sample_file
-
     tasks = []
     for n, i in enumerate(np.asarray(samples, dtype=np.int64)):
         i = int(i)

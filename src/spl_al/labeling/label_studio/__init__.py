@@ -7,9 +7,14 @@
 - ``mask_to_rle`` / ``rle_to_mask`` (``brush``): Label Studio's brush RLE.
 """
 
-from spl_al.label_studio.brush import decode_rle, encode_rle, mask_to_rle, rle_to_mask
-from spl_al.label_studio.export import read_export
-from spl_al.label_studio.tasks import CONFIG_FILE, TASKS_FILE, labeling_config, write_import
+from spl_al.labeling.label_studio.brush import decode_rle, encode_rle, mask_to_rle, rle_to_mask
+from spl_al.labeling.label_studio.export import read_export
+from spl_al.labeling.label_studio.tasks import (
+    CONFIG_FILE,
+    TASKS_FILE,
+    labeling_config,
+    write_import,
+)
 
 __all__ = [
     "CONFIG_FILE",

@@ -1,0 +1,285 @@
+"""The import graph of src/spl_al: no cycle, no upward arrow, no private name shared.
+
+Read from the source with ``ast`` (nothing is imported): every ``import`` and
+``from ... import`` of an spl_al module counts, at module level or inside a
+function, so a function-local import cannot hide a cycle or an upward arrow.
+
+Layers, top to bottom (docs/design.md, "Layers"): a module may import its own
+top-level unit (``spl_al.data`` for ``spl_al.data.pictures``) and any unit of a
+lower layer, never one of its own layer or above. ``UPWARD`` lists the arrows that
+still point up, each with its reason; the list may only shrink.
+"""
+
+from __future__ import annotations
+
+import ast
+import re
+from collections.abc import Iterator
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parents[1]
+SRC = ROOT / "src"
+
+LAYERS: list[tuple[str, list[str]]] = [
+    ("tools", ["spl_al.__main__", "spl_al.bench", "spl_al.docs"]),
+    ("workflow steps", ["spl_al.experiment"]),
+    ("outputs", ["spl_al.deploy", "spl_al.labeling", "spl_al.report"]),
+    ("active learning", ["spl_al.pool", "spl_al.scoring"]),
+    ("learning", ["spl_al.strategies", "spl_al.training"]),
+    ("models", ["spl_al.models"]),
+    ("data", ["spl_al.data"]),
+    ("physics and geometry", ["spl_al.photon", "spl_al.scenes"]),
+    ("kit", ["spl_al.config", "spl_al.plotting"]),
+    ("ground", ["spl_al", "spl_al.atomic", "spl_al.labels"]),
+]
+
+# (importer, imported): why the arrow still points up. Remove an entry with its arrow.
+UPWARD: dict[tuple[str, str], str] = {
+    ("spl_al.deploy.card", "spl_al.experiment.round_steps"): (
+        "build_card reads a round's labeled set with the workflow's read_labeled"
+    ),
+    ("spl_al.experiment.overview", "spl_al.bench.estimate"): (
+        "the plan a run prints first includes the bench's wall-time estimate"
+    ),
+}
+
+
+def modules() -> dict[str, Path]:
+    """Dotted name -> file of every module of src/spl_al (a package by its __init__)."""
+    out = {}
+    for path in sorted((SRC / "spl_al").rglob("*.py")):
+        parts = list(path.relative_to(SRC).with_suffix("").parts)
+        if parts[-1] == "__init__":
+            parts = parts[:-1]
+        out[".".join(parts)] = path
+    return out
+
+
+MODULES = modules()
+
+
+def is_private(name: str) -> bool:
+    return name.startswith("_") and not (name.startswith("__") and name.endswith("__"))
+
+
+def owner(dotted: str) -> str | None:
+    """The longest spl_al module that ``dotted`` names or lies in."""
+    while dotted and dotted not in MODULES:
+        dotted = dotted.rpartition(".")[0]
+    return dotted or None
+
+
+def base_of(module: str, node: ast.ImportFrom) -> str:
+    """The absolute module a ``from ... import`` reads from (relative ones resolved)."""
+    if not node.level:
+        return node.module or ""
+    package = module if MODULES[module].name == "__init__.py" else module.rpartition(".")[0]
+    for _ in range(node.level - 1):
+        package = package.rpartition(".")[0]
+    return f"{package}.{node.module}" if node.module else package
+
+
+def imports(module: str) -> Iterator[tuple[int, str, str]]:
+    """(line, imported module, the name as written) of every spl_al import of ``module``."""
+    tree = ast.parse(MODULES[module].read_text(), filename=str(MODULES[module]))
+    for node in ast.walk(tree):
+        if isinstance(node, ast.Import):
+            for alias in node.names:
+                if owner(alias.name) and alias.name.split(".")[0] == "spl_al":
+                    yield node.lineno, owner(alias.name), alias.name
+        elif isinstance(node, ast.ImportFrom):
+            base = base_of(module, node)
+            if base.split(".")[0] != "spl_al":
+                continue
+            for alias in node.names:
+                full = f"{base}.{alias.name}"
+                yield node.lineno, owner(full) if full in MODULES else owner(base), full
+
+
+def graph() -> dict[str, set[str]]:
+    return {m: {target for _, target, _ in imports(m) if target and target != m} for m in MODULES}
+
+
+def unit(module: str) -> str:
+    """The top-level unit a module belongs to: spl_al.data for spl_al.data.pictures."""
+    return ".".join(module.split(".")[:2])
+
+
+def layer_of(module: str) -> int:
+    for depth, (_, units) in enumerate(LAYERS):
+        if unit(module) in units:
+            return depth
+    raise AssertionError(f"{module} is in no layer of tests/test_imports.py; give it one.")
+
+
+def test_every_module_has_a_layer():
+    for module in MODULES:
+        layer_of(module)
+
+
+def test_no_import_cycle_among_spl_al_modules():
+    edges = graph()
+    index: dict[str, int] = {}
+    low: dict[str, int] = {}
+    stack: list[str] = []
+    on_stack: set[str] = set()
+    cycles = []
+
+    def visit(v: str) -> None:  # Tarjan's strongly connected components
+        index[v] = low[v] = len(index)
+        stack.append(v)
+        on_stack.add(v)
+        for w in sorted(edges[v]):
+            if w not in index:
+                visit(w)
+                low[v] = min(low[v], low[w])
+            elif w in on_stack:
+                low[v] = min(low[v], index[w])
+        if low[v] == index[v]:
+            component = []
+            while True:
+                w = stack.pop()
+                on_stack.discard(w)
+                component.append(w)
+                if w == v:
+                    break
+            if len(component) > 1:
+                cycles.append(sorted(component))
+
+    for v in sorted(edges):
+        if v not in index:
+            visit(v)
+    assert not cycles, f"import cycles among spl_al modules: {cycles}"
+
+
+def test_no_module_imports_its_own_layer_or_above():
+    wrong = []
+    for module in MODULES:
+        for line, target, name in imports(module):
+            if not target or unit(target) == unit(module) or (module, target) in UPWARD:
+                continue
+            if layer_of(target) <= layer_of(module):
+                what = "its own layer" if layer_of(target) == layer_of(module) else "upward"
+                where = f"{MODULES[module].relative_to(SRC.parent)}:{line}"
+                wrong.append(f"{where}: {name} ({what})")
+    assert not wrong, "imports against the layers (tests/test_imports.py):\n" + "\n".join(wrong)
+
+
+def test_every_listed_upward_arrow_still_exists():
+    edges = graph()
+    gone = [pair for pair in UPWARD if pair[1] not in edges.get(pair[0], set())]
+    assert not gone, f"remove these from UPWARD, the arrows are gone: {gone}"
+
+
+def test_no_private_name_is_imported_across_modules():
+    wrong = []
+    for module, path in MODULES.items():
+        tree = ast.parse(path.read_text(), filename=str(path))
+        aliases: dict[str, str] = {}  # local name -> spl_al module it is bound to
+        for node in ast.walk(tree):
+            if isinstance(node, ast.ImportFrom):
+                base = base_of(module, node)
+                if base.split(".")[0] != "spl_al":
+                    continue
+                for alias in node.names:
+                    full = f"{base}.{alias.name}"
+                    if full in MODULES:
+                        aliases[alias.asname or alias.name] = full
+                    elif is_private(alias.name) and base != module:
+                        wrong.append(f"{path.relative_to(SRC.parent)}:{node.lineno}: {full}")
+            elif isinstance(node, ast.Import):
+                for alias in node.names:
+                    if alias.name.split(".")[0] == "spl_al":
+                        bound = alias.name if alias.asname else alias.name.split(".")[0]
+                        aliases[alias.asname or bound] = bound
+        for node in ast.walk(tree):
+            if not (isinstance(node, ast.Attribute) and is_private(node.attr)):
+                continue
+            chain, value = [], node.value
+            while isinstance(value, ast.Attribute):
+                chain.append(value.attr)
+                value = value.value
+            if isinstance(value, ast.Name) and value.id in aliases:
+                target = ".".join([aliases[value.id], *reversed(chain)])
+                if target in MODULES and target != module:
+                    wrong.append(
+                        f"{path.relative_to(SRC.parent)}:{node.lineno}: {target}.{node.attr}"
+                    )
+    assert not wrong, "private names used outside their module:\n" + "\n".join(wrong)
+
+
+def fake_package(tmp_path, monkeypatch, files: dict[str, str]) -> None:
+    """Point the checks of this module at a made-up src/spl_al of ``files``."""
+    for name, text in {"__init__.py": "", **files}.items():
+        path = tmp_path / "spl_al" / name
+        path.parent.mkdir(parents=True, exist_ok=True)
+        path.write_text(text)
+    this = __import__(__name__)
+    monkeypatch.setattr(this, "SRC", tmp_path)
+    monkeypatch.setattr(this, "MODULES", modules())
+
+
+@pytest.mark.parametrize("text", ["from spl_al.x import _y", "import spl_al.x as m\nm._y"])
+def test_the_private_check_sees_both_ways_in(text, monkeypatch, tmp_path):
+    fake_package(tmp_path, monkeypatch, {"x/__init__.py": "_y = 1\n", "z.py": text + "\n"})
+    with pytest.raises(AssertionError, match=r"spl_al/z\.py:\d+: spl_al\.x\._y"):
+        test_no_private_name_is_imported_across_modules()
+
+
+def test_the_graph_checks_see_a_hidden_cycle_and_an_upward_arrow(monkeypatch, tmp_path):
+    fake_package(
+        tmp_path,
+        monkeypatch,
+        {
+            "data/__init__.py": "def f():\n    from spl_al.labeling import g\n",
+            "labeling.py": "from spl_al.data import f\n",
+        },
+    )
+    with pytest.raises(AssertionError, match=r"spl_al\.data.*spl_al\.labeling"):
+        test_no_import_cycle_among_spl_al_modules()
+    with pytest.raises(AssertionError, match=r"spl_al/data/__init__\.py:2: spl_al\.labeling\.g"):
+        test_no_module_imports_its_own_layer_or_above()
+
+
+def top_level_names(module: str) -> set[str]:
+    tree = ast.parse(MODULES[module].read_text())
+    names = set()
+    for node in tree.body:
+        if isinstance(node, ast.FunctionDef | ast.ClassDef):
+            names.add(node.name)
+        elif isinstance(node, ast.Import | ast.ImportFrom):
+            names |= {a.asname or a.name.split(".")[0] for a in node.names}
+        elif isinstance(node, ast.Assign | ast.AnnAssign):
+            targets = node.targets if isinstance(node, ast.Assign) else [node.target]
+            names |= {t.id for t in targets if isinstance(t, ast.Name)}
+    return names
+
+
+NAMED = re.compile(r"[\"'](spl_al(?:\.\w+)*)(?::(\w+))?[\"']")
+
+
+def test_every_module_named_in_a_string_exists():
+    """Jobs (``"spl_al.experiment.human:accept_labels"``), warm-worker preloads and the
+    command table name modules in strings, which a move would leave behind."""
+    places = [
+        *sorted((ROOT / "workflow" / "scripts").glob("*.py")),
+        *sorted((ROOT / "workflow" / "rules").glob("*.smk")),
+        SRC / "spl_al" / "__main__.py",
+        SRC / "spl_al" / "experiment" / "warm.py",
+    ]
+    named = [
+        (path, module, function)
+        for path in places
+        for module, function in re.findall(
+            r"[\"'](spl_al(?:\.\w+)*)(?::(\w+))?[\"']", path.read_text()
+        )
+    ]
+    assert len(named) > 20
+    missing = [
+        f"{path.relative_to(ROOT)}: {module}{':' + function if function else ''}"
+        for path, module, function in named
+        if module not in MODULES or (function and function not in top_level_names(module))
+    ]
+    assert not missing, "no such module or function: " + ", ".join(missing)
