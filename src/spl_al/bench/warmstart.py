@@ -27,7 +27,7 @@ from pathlib import Path
 
 import numpy as np
 
-from spl_al.bench.learnability import _default_datasets, recipe_overrides, tuning_split
+from spl_al.bench.learnability import default_datasets, recipe_overrides, tuning_split
 from spl_al.bench.timing import markdown_table
 
 SEEDS = (1, 2, 3)
@@ -104,7 +104,7 @@ def main(argv: list[str] | None = None) -> int:
     cache.mkdir(parents=True, exist_ok=True)
     given = recipe_overrides([f"fit.{item}" for item in args.warm])["fit"]
     rows = []
-    for name, data, model_cfg, fit_cfg in _default_datasets(args.config, args.only, cache):
+    for name, data, model_cfg, fit_cfg in default_datasets(args.config, args.only, cache):
         entry = config["datasets"][name]
         counts = budget_counts(entry)
         warm = (
