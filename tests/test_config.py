@@ -177,6 +177,22 @@ def test_the_default_run_takes_the_steps_it_took_before_the_policy():
         assert _round_steps(config, dataset, "groups") == _round_steps(config, dataset, "images")
 
 
+def test_training_notes_name_a_warm_start():
+    from spl_al.config import training_notes
+
+    config = _merged()
+    config["datasets"]["street_seg"]["train"]["warm_start"] = None
+    assert training_notes(config, "street_seg") == []
+    config["datasets"]["street_seg"]["train"]["warm_start"] = {"min_steps": 150}
+    (note,) = training_notes(config, "street_seg")
+    assert "previous-round model" in note and "min_steps: 150" in note
+    schema = Path(__file__).resolve().parents[1] / "config" / "schema.yaml"
+    check_config(config, schema)
+    config["datasets"]["street_seg"]["train"]["warm_start"] = {"mixup": 0.5}
+    with pytest.raises(ValueError, match="warm_start"):
+        check_config(config, schema)
+
+
 def test_training_notes_name_steps_that_scale_with_images():
     from spl_al.config import training_notes
 

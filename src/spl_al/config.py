@@ -171,9 +171,19 @@ STEPS_BY_IMAGES_NOTE = (
 def training_notes(config: dict, dataset: str) -> list[str]:
     """Notes a dataset's tables carry about how its methods were trained: one when
     ``train.fit.steps_by`` is "images" (steps are then not equal across methods at a
-    budget), none under the default policy (epochs count labeled groups)."""
-    fit = config["datasets"][dataset].get("train", {}).get("fit") or {}
-    return [STEPS_BY_IMAGES_NOTE] if fit.get("steps_by") == "images" else []
+    budget), one when ``train.warm_start`` fine-tunes each round from the last; none
+    under the default policy (epochs count labeled groups, every round fresh weights)."""
+    train = config["datasets"][dataset].get("train", {})
+    fit = train.get("fit") or {}
+    notes = [STEPS_BY_IMAGES_NOTE] if fit.get("steps_by") == "images" else []
+    warm = train.get("warm_start")
+    if warm:
+        fields = ", ".join(f"{k}: {v}" for k, v in warm.items())
+        notes.append(
+            "rounds after round 0 fine-tune the method's previous-round model "
+            f"(train.warm_start: {fields}) instead of training fresh weights"
+        )
+    return notes
 
 
 def write_config(config: dict, path) -> Path:
