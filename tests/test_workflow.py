@@ -89,3 +89,38 @@ def test_a_missing_real_captures_folder_is_one_line_naming_the_variable(tmp_path
     )
     assert run.returncode != 0
     assert "environment variable SPL_AL_REAL_CAPTURES names" in run.stderr
+
+
+def test_real_capture_pictures_take_npy_and_hdf5_cubes_with_the_configured_timing(tmp_path):
+    """photon.real_captures: .npy and HDF5 cubes are pictured, read with
+    photon.real_capture_options; another file is named in one line; a cube without a
+    bin width stops the run before any job, naming the key to set."""
+    import h5py
+    import numpy as np
+
+    folder = tmp_path / "real"
+    folder.mkdir()
+    cube = np.zeros((8, 8, 64), np.uint16)
+    cube[..., 10] = 3
+    np.save(folder / "a.npy", cube)
+    with h5py.File(folder / "b.h5", "w") as f:
+        f.create_dataset("counts", data=cube)
+    (folder / "notes.txt").write_text("not a capture")
+    results = tmp_path / "results"
+    targets = [str(results / "photon" / "real" / f"{name}.png") for name in ("a", "b")]
+    photon = {"real_captures": str(folder), "real_capture_options": {"bin_width_ps": 80}}
+    override = tmp_path / "pictures.yaml"
+    override.write_text(yaml.safe_dump({"photon": photon}))
+    args = ("--configfile", str(override), "--config", f"results={results}")
+    run = snakemake("-n", "-p", "--cores", "1", *targets, *args)
+    assert run.returncode == 0, run.stderr[-3000:]
+    out = run.stdout + run.stderr
+    assert out.count("rule photon_real_capture:") == 2
+    assert "--real " in out and "--bin-width-ps 80" in out
+    assert "notes.txt is not read, not a capture format (supported: .mat, .ptu, HDF5" in out
+
+    override.write_text(yaml.safe_dump({"photon": {"real_captures": str(folder)}}))
+    run = snakemake("-n", "--cores", "1", *targets, *args)
+    assert run.returncode != 0
+    assert "a.npy: a count cube that states no bin width" in run.stderr
+    assert "set photon.real_capture_options.bin_width_ps" in run.stderr

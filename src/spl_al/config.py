@@ -14,7 +14,7 @@ import os
 from pathlib import Path
 
 # Environment variables naming folders that cannot ship with the repository.
-REAL_CAPTURES_ENV = "SPL_AL_REAL_CAPTURES"  # real .mat photon captures (ugv45m frames)
+REAL_CAPTURES_ENV = "SPL_AL_REAL_CAPTURES"  # real photon captures (the ugv45m frames)
 SSPI_WEIGHTS_ENV = "SPL_AL_SSPI_WEIGHTS"  # SSPI checkpoints
 
 

@@ -12,9 +12,17 @@ from spl_al.config import (
     train_setup,
     training_notes,
 )
-from spl_al.data.captures import CaptureOptions, capture_files, shard_count, shard_of
+from spl_al.data.captures import (
+    CaptureOptions,
+    capture_files,
+    check_timing,
+    not_read,
+    picture_files,
+    shard_count,
+    shard_of,
+)
 from spl_al.data.external import folder_has_levels
-from spl_al.photon.io import CAPTURE_SUFFIXES
+from spl_al.photon.io import ReadOptions
 from spl_al.data.label_files import lists_training_rows
 from spl_al.experiment.warm import Server
 from spl_al.experiment.overview import estimate_minutes, jobs_line, plan_text
@@ -75,6 +83,14 @@ try:
     check_plan(config)
     # photon.real_captures, else $SPL_AL_REAL_CAPTURES, else None (no pictures)
     REAL_CAPTURES = real_captures_dir(config)
+    # how the pictures read their captures: a dataset's `captures:` reader options
+    PICTURE_OPTIONS = ReadOptions.from_dict(
+        config["photon"].get("real_capture_options"), "photon.real_capture_options"
+    )
+    CAPTURE_OPTIONS = {
+        d: CaptureOptions.from_dict(config["datasets"][d].get("captures"))
+        for d in CAPTURES
+    }
     CAPTURE_FILES = {
         d: capture_files(
             config["datasets"][d].get("path"),
@@ -82,11 +98,19 @@ try:
         )
         for d in CAPTURES
     }
-    CAPTURE_SHARDS = {
-        d: shard_count(
-            CaptureOptions.from_dict(config["datasets"][d].get("captures")), len(f)
+    for d, files in CAPTURE_FILES.items():
+        # a cube with no timing stops the run here, not in a reconstruction job
+        check_timing(
+            config["datasets"][d]["path"],
+            files,
+            CAPTURE_OPTIONS[d],
+            f"datasets.{d}.captures.bin_width_ps",
         )
-        for d, f in CAPTURE_FILES.items()
+        if workflow.exec_mode == ExecMode.DEFAULT:  # once, not in every job
+            for line in not_read(config["datasets"][d]["path"]):
+                logger.info(f"{d}: {line}")
+    CAPTURE_SHARDS = {
+        d: shard_count(CAPTURE_OPTIONS[d], len(f)) for d, f in CAPTURE_FILES.items()
     }
     # Datasets whose seed_labels list training rows: those rows are round 0's labels.
     SEED_LABELS_TRAIN = {
@@ -118,34 +142,19 @@ def print_jobs_line():
 @functools.cache  # once per run: it names every file it leaves out
 def real_capture_files():
     """{name: file} of the real captures to picture (none without a captures folder):
-    the .mat and .ptu files, named by their stem. Formats that may state no timing
-    (.npy/.npz/HDF5 cubes) are left to ``python -m spl_al.photon --real`` with options.
-    """
+    every file of a capture format, read with photon.real_capture_options, named by
+    its stem. A file of another format is named once, with the supported formats."""
     if REAL_CAPTURES is None:
         return {}
-    files = sorted(
-        p
-        for p in REAL_CAPTURES.iterdir()
-        if p.is_file() and p.suffix.lower() in (".mat", ".ptu")
-    )
-    # Nothing skipped without a word: every other file is named once, with why.
-    for p in sorted(REAL_CAPTURES.iterdir()):
-        if not p.is_file() or p.name.startswith(".") or p in files:
-            continue
-        why = (
-            "a cube states no timing: picture it with `python -m spl_al.photon "
-            "reconstruct` and its options (docs/real-data.md)"
-            if p.suffix.lower() in CAPTURE_SUFFIXES
-            else f"not a capture format ({', '.join(CAPTURE_SUFFIXES)})"
+    if workflow.exec_mode == ExecMode.DEFAULT:  # once, not in every job
+        for line in not_read(REAL_CAPTURES, recursive=False):
+            logger.info(f"real captures: {line}")
+    try:
+        return picture_files(
+            REAL_CAPTURES, PICTURE_OPTIONS, "photon.real_capture_options.bin_width_ps"
         )
-        logger.info(f"real captures: {p.name} is not pictured; {why}.")
-    stems = [p.stem for p in files]
-    twins = sorted({s for s in stems if stems.count(s) > 1})
-    if twins:
-        sys.exit(
-            f"Error: real captures {twins[0]}.* exist in two formats in {REAL_CAPTURES}."
-        )
-    return {p.stem: str(p) for p in files}
+    except ValueError as err:
+        sys.exit(f"Error: {err}")
 
 
 def photon_pictures():

@@ -45,5 +45,7 @@ rule photon_real_capture:
         runtime=res("photon_real_capture", "runtime", 5),
     params:
         sspi=sspi_args("--sspi"),
+        read=shlex.join(PICTURE_OPTIONS.cli_args()),
     shell:
-        "python -m spl_al.photon --real {input} {output} {params.sspi} > {log} 2>&1"
+        "python -m spl_al.photon --real {input} {output} {params.read} {params.sspi} "
+        "> {log} 2>&1"

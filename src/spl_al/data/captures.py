@@ -26,7 +26,7 @@ from pathlib import Path
 import numpy as np
 
 from spl_al.atomic import atomic_write, atomic_write_text
-from spl_al.photon.io import CAPTURE_SUFFIXES
+from spl_al.photon.io import READ_KEYS, SUPPORTED_FORMATS, ReadOptions, list_captures
 
 LEVEL_SPLITS = ("tertiles", "edges")
 _RELEASE_KEYS = ("depth_ssp", "intensity", "msppp", "sbr", "pulse_sigma_s", "bin_width_s")
@@ -84,15 +84,27 @@ class CaptureOptions:
             )
         return options
 
+    @property
+    def reading(self) -> ReadOptions:
+        """The options of how each file is read (``READ_KEYS``)."""
+        return ReadOptions(**{name: getattr(self, name) for name in READ_KEYS})
+
+    @property
+    def pulse_sigma_s(self) -> float | None:
+        """The instrument response sigma given, in seconds (None: the file's or estimated)."""
+        return self.reading.pulse_sigma_s
+
+    def load(self, path):
+        """The capture in ``path``, read as the pictures and the command line read theirs."""
+        return self.reading.load(path)
+
+    def missing_timing(self, path, setting: str) -> str | None:
+        """``ReadOptions.missing_timing`` of these options."""
+        return self.reading.missing_timing(path, setting)
+
     def load_kwargs(self) -> dict:
         """Keyword arguments of ``load_capture``."""
-        return {
-            "key": self.key,
-            "time_unit": self.time_unit,
-            "bin_width_s": None if self.bin_width_ps is None else self.bin_width_ps * 1e-12,
-            "time_axis": self.time_axis,
-            "channel": self.channel,
-        }
+        return self.reading.load_kwargs()
 
 
 def capture_files(root, flat: bool = False) -> list[str]:
@@ -106,16 +118,11 @@ def capture_files(root, flat: bool = False) -> list[str]:
     root = Path(root)
     if not root.is_dir():
         raise ValueError(f"captures folder {root} does not exist (config key 'path').")
-    files = sorted(
-        str(p.relative_to(root))
-        for p in root.rglob("*")
-        if p.is_file()
-        and p.suffix.lower() in CAPTURE_SUFFIXES
-        and not any(part.startswith(".") for part in p.relative_to(root).parts)
-    )
+    files = [str(p.relative_to(root)) for p in list_captures(root)[0]]
     if not files:
-        expected = ", ".join(CAPTURE_SUFFIXES)
-        raise ValueError(f"captures folder {root} holds no capture file (expected {expected}).")
+        raise ValueError(
+            f"captures folder {root} holds no capture file (expected {SUPPORTED_FORMATS})."
+        )
     nested = [f for f in files if Path(f).parent != Path(".")]
     if flat and nested:
         raise ValueError(
@@ -123,6 +130,47 @@ def capture_files(root, flat: bool = False) -> list[str]:
             f"{root} (an unlabeled pool is read flat); found {Path(nested[0]).parent}/."
         )
     return files
+
+
+def not_read(root, recursive: bool = True) -> list[str]:
+    """One line for each file in ``root`` that is not a capture format (so not read),
+    naming the supported formats: nothing in a captures folder is skipped without a word."""
+    root = Path(root)
+    return [
+        f"{root}: {p.relative_to(root)} is not read, not a capture format "
+        f"(supported: {SUPPORTED_FORMATS})."
+        for p in list_captures(root, recursive)[1]
+    ]
+
+
+def check_timing(root, files, options: ReadOptions | CaptureOptions, setting: str) -> None:
+    """Raise ValueError (one sentence naming ``setting``) for the first of ``files``
+    (relative to ``root``) that is a count cube stating no bin width when ``options``
+    give none: before any reconstruction job runs, not in one."""
+    for name in files:
+        problem = options.missing_timing(Path(root) / name, setting)
+        if problem:
+            raise ValueError(problem)
+
+
+def picture_files(folder, options: ReadOptions, setting: str) -> dict[str, str]:
+    """{name: file} of the real captures in ``folder`` to picture, named by their stem:
+    every file ``load_capture`` reads with ``options`` (.mat, .ptu, HDF5, .npy/.npz),
+    as for a ``source: captures`` dataset. Files of other formats are left out (name
+    them with ``not_read(folder, recursive=False)``).
+
+    Raises:
+        ValueError: one sentence, for a count cube that states no bin width when
+            ``options`` give none (naming ``setting``), or for two files of one name.
+    """
+    folder = Path(folder)
+    files = list_captures(folder, recursive=False)[0]
+    check_timing(folder, [p.name for p in files], options, setting)
+    stems = [p.stem for p in files]
+    twins = sorted({s for s in stems if stems.count(s) > 1})
+    if twins:
+        raise ValueError(f"real captures {twins[0]}.* exist in two formats in {folder}.")
+    return {p.stem: str(p) for p in files}
 
 
 def shard_count(options: CaptureOptions, n_files: int) -> int:
@@ -141,16 +189,14 @@ def reconstruct_shard(root, files: list[str], out_path, options: CaptureOptions,
     The file holds, per frame k, ``{k}/{name}`` for every release array and ``files``,
     the relative paths in order. Returns the number of frames.
     """
-    from spl_al.photon.io import load_capture
     from spl_al.photon.release import reconstruct_capture
 
     root = Path(root)
     arrays: dict[str, np.ndarray] = {"files": np.array(files, dtype=str)}
-    sigma_s = None if options.pulse_sigma_ps is None else options.pulse_sigma_ps * 1e-12
     for k, name in enumerate(files):
-        capture = load_capture(root / name, options.format, **options.load_kwargs())
+        capture = options.load(root / name)
         result = reconstruct_capture(
-            capture, method=options.method, pulse_sigma_s=sigma_s, weights=weights
+            capture, method=options.method, pulse_sigma_s=options.pulse_sigma_s, weights=weights
         )
         print(f"{name}: {capture.describe()}; {result.summary()}", flush=True)
         for key, value in result.release_arrays().items():

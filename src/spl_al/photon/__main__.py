@@ -42,22 +42,20 @@ def _capture_options(parser: argparse.ArgumentParser) -> None:
     )
 
 
-def _load(args):
-    from spl_al.photon.io import load_capture
+def _options(args):
+    """The reader options of the command line: those of a dataset's ``captures:``."""
+    from spl_al.photon.io import READ_KEYS, ReadOptions
 
-    return load_capture(
-        args.capture,
-        args.format,
-        key=args.key,
-        time_unit=args.time_unit,
-        bin_width_s=None if args.bin_width_ps is None else args.bin_width_ps * 1e-12,
-        time_axis=args.time_axis,
-        channel=args.channel,
-    )
+    return ReadOptions(**{name: getattr(args, name) for name in READ_KEYS})
+
+
+def _load(args):
+    """The capture, read as ``source: captures`` and the pictures read theirs."""
+    return _options(args).load(args.capture)
 
 
 def _sigma_s(args) -> float | None:
-    return None if args.pulse_sigma_ps is None else args.pulse_sigma_ps * 1e-12
+    return _options(args).pulse_sigma_s
 
 
 def reconstruct_main(argv: list[str]) -> int:

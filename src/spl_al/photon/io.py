@@ -17,10 +17,17 @@ of a file that states none), ``gate_s`` (range gate (start, stop) of timestamps,
 seconds), ``shape`` and ``order`` (sparse matrices), ``time_axis`` (cubes),
 ``channel`` (PTU). Timing a file states is read under the names listed in
 ``spl_al.photon.formats.timing``.
+
+``ReadOptions`` holds these options as the config and the command line name them
+(``bin_width_ps``, ...): a dataset's ``captures:``, the real-capture pictures and
+``python -m spl_al.photon`` all read through its ``load``. A file of any other format
+is one line naming ``SUPPORTED_FORMATS``; ``list_captures`` tells a folder's captures
+from its other files.
 """
 
 from __future__ import annotations
 
+from dataclasses import dataclass
 from pathlib import Path
 
 from spl_al.photon.capture import Capture, time_unit_s
@@ -28,6 +35,8 @@ from spl_al.photon.events import PhotonEvents
 
 FORMATS = ("auto", "sparse_mat", "timestamps_mat", "cube", "ptu")
 CAPTURE_SUFFIXES = (".mat", ".npy", ".npz", ".h5", ".hdf5", ".ptu")
+# The formats in words, for the one line that refuses any other file.
+SUPPORTED_FORMATS = ".mat, .ptu, HDF5 (.h5, .hdf5) and .npy/.npz count cubes"
 _SUPPORTED = (
     "supported: a .mat with a sparse pixels x bins matrix, a .mat with an H x W cell array "
     "of arrival times, a 3-D count cube in .mat/.npy/.npz/.h5, or a PicoQuant .ptu image "
@@ -77,7 +86,9 @@ def load_capture(
 
         return read_ptu(path, channel=channel)
     if suffix != ".mat":
-        if format not in ("auto", "cube") or suffix not in CAPTURE_SUFFIXES:
+        if suffix not in CAPTURE_SUFFIXES:
+            raise ValueError(not_a_capture(path))
+        if format not in ("auto", "cube"):
             raise ValueError(f"{path}: not a capture file this reader knows; {_SUPPORTED}.")
         from spl_al.photon.formats.cube import read_cube_file
 
@@ -96,6 +107,114 @@ def load_capture(
         order=order,
         time_axis=time_axis,
     )
+
+
+# How a file is read: the options a dataset's ``captures:``, the real-capture pictures'
+# ``photon.real_capture_options`` and the command line's flags all take.
+READ_KEYS = ("format", "time_unit", "bin_width_ps", "pulse_sigma_ps", "key", "time_axis", "channel")
+# Cubes in these files state their timing only by name (spl_al.photon.formats.timing).
+_CUBE_SUFFIXES = (".npy", ".npz", ".h5", ".hdf5")
+
+
+@dataclass(frozen=True)
+class ReadOptions:
+    """How capture files are read (``READ_KEYS``; picoseconds where a key says ps).
+
+    One set of options for every place captures are read: a dataset's ``captures:``
+    (``spl_al.data.captures.CaptureOptions`` holds them), the real-capture pictures'
+    ``photon.real_capture_options`` and ``python -m spl_al.photon``'s flags.
+    """
+
+    format: str = "auto"
+    time_unit: str = "ps"
+    bin_width_ps: float | None = None
+    pulse_sigma_ps: float | None = None
+    key: str | None = None
+    time_axis: int | None = None
+    channel: int | None = None
+
+    @classmethod
+    def from_dict(cls, values: dict | None, name: str) -> ReadOptions:
+        """The options of config key ``name`` (missing keys take defaults)."""
+        values = dict(values or {})
+        unknown = sorted(set(values) - set(READ_KEYS))
+        if unknown:
+            raise ValueError(
+                f"config key {name!r} has unknown options {unknown}; expected among "
+                f"{', '.join(READ_KEYS)}."
+            )
+        return cls(**values)
+
+    @property
+    def pulse_sigma_s(self) -> float | None:
+        """The instrument response sigma given, in seconds (None: the file's or estimated)."""
+        return None if self.pulse_sigma_ps is None else self.pulse_sigma_ps * 1e-12
+
+    def load_kwargs(self) -> dict:
+        """Keyword arguments of ``load_capture`` (the pulse sigma is the caller's)."""
+        return {
+            "key": self.key,
+            "time_unit": self.time_unit,
+            "bin_width_s": None if self.bin_width_ps is None else self.bin_width_ps * 1e-12,
+            "time_axis": self.time_axis,
+            "channel": self.channel,
+        }
+
+    def load(self, path) -> Capture:
+        """The capture in ``path``, read by ``load_capture`` with these options."""
+        return load_capture(path, self.format, **self.load_kwargs())
+
+    def cli_args(self) -> list[str]:
+        """These options as ``python -m spl_al.photon`` flags (defaults left out)."""
+        args = [] if self.format == "auto" else ["--format", self.format]
+        args += [] if self.time_unit == "ps" else ["--time-unit", self.time_unit]
+        for name in ("key", "bin_width_ps", "pulse_sigma_ps", "time_axis", "channel"):
+            value = getattr(self, name)
+            if value is not None:
+                args += [f"--{name.replace('_', '-')}", str(value)]
+        return args
+
+    def missing_timing(self, path, setting: str) -> str | None:
+        """One sentence when ``path`` is a .npy/.npz/HDF5 count cube that states no bin
+        width and these options give none, naming ``setting`` (the key to set); else
+        None. Read without the counts; a .mat or .ptu is left to the reader."""
+        from spl_al.photon.formats.cube import names_a_bin_width
+
+        path = Path(path)
+        if (
+            self.bin_width_ps is not None
+            or self.format not in ("auto", "cube")
+            or path.suffix.lower() not in _CUBE_SUFFIXES
+            or names_a_bin_width(path)
+        ):
+            return None
+        return (
+            f"{path}: a count cube that states no bin width, and none is configured; "
+            f"set {setting} (the width of its time bins in ps)."
+        )
+
+
+def not_a_capture(path) -> str:
+    """The one line for a file of a format no reader knows, naming the supported ones."""
+    return f"{path}: not a capture file this reader knows; supported: {SUPPORTED_FORMATS}."
+
+
+def is_capture(path) -> bool:
+    """Whether ``path`` has the suffix of a format ``load_capture`` reads."""
+    return Path(path).suffix.lower() in CAPTURE_SUFFIXES
+
+
+def list_captures(root, recursive: bool = True) -> tuple[list[Path], list[Path]]:
+    """(captures, other files) in the folder ``root``, each sorted; hidden files and
+    folders (a leading dot) are in neither. ``recursive``: search its subfolders too."""
+    root = Path(root)
+    found = root.rglob("*") if recursive else root.iterdir()
+    files = sorted(
+        p
+        for p in found
+        if p.is_file() and not any(part.startswith(".") for part in p.relative_to(root).parts)
+    )
+    return [p for p in files if is_capture(p)], [p for p in files if not is_capture(p)]
 
 
 def _load_mat(

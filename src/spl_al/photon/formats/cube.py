@@ -17,7 +17,7 @@ import numpy as np
 from spl_al.photon.capture import Capture
 from spl_al.photon.events import events_from_counts
 from spl_al.photon.formats.choose import choose_key
-from spl_al.photon.formats.timing import counts_capture
+from spl_al.photon.formats.timing import BIN_WIDTH_NAMES, counts_capture
 
 CUBE_SUFFIXES = (".npy", ".npz", ".h5", ".hdf5", ".mat")
 
@@ -84,6 +84,36 @@ def _read_hdf5(path: Path) -> dict[str, object]:
     except (OSError, KeyError, RuntimeError) as exc:
         raise ValueError(f"{path}: not a readable HDF5 file ({exc}).") from None
     return {k: v for k, v in out.items() if v is not None}
+
+
+def names_a_bin_width(path: Path) -> bool:
+    """Whether a ``.npy``, ``.npz`` or HDF5 cube file holds a bin width under one of
+    ``BIN_WIDTH_NAMES`` (an array, dataset or attribute), read without its counts: a
+    ``.npy`` holds one array and never does. An unreadable file counts as naming one
+    (the reader then says what is wrong with it)."""
+    path = Path(path)
+    suffix = path.suffix.lower()
+    if suffix == ".npy":
+        return False
+    try:
+        if suffix == ".npz":
+            with zipfile.ZipFile(path) as z:
+                names = {Path(n).stem for n in z.namelist()}
+        else:
+            import h5py
+
+            names = set()
+            with h5py.File(path, "r") as f:
+                names.update(f.attrs)
+
+                def visit(name, item):
+                    names.add(name.rsplit("/", 1)[-1])
+                    names.update(item.attrs)
+
+                f.visititems(visit)
+    except (OSError, KeyError, RuntimeError, zipfile.BadZipFile):
+        return True
+    return any(name in names for name in BIN_WIDTH_NAMES)
 
 
 def read_cube_file(path: Path, **options) -> Capture:

@@ -99,7 +99,8 @@ def counts_capture(
     width = width if width is not None else given_bin_width_s
     if width is None:
         raise ValueError(
-            f"{path}: states no bin width; give it (option bin_width_s, "
+            f"{path}: states no bin width; give it (option bin_width_s, config "
+            "bin_width_ps of a dataset's captures or of photon.real_capture_options, "
             "or --bin-width-ps on the command line)."
         )
     return Capture(
