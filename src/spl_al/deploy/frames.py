@@ -19,7 +19,7 @@ from pathlib import Path
 import numpy as np
 
 from spl_al.data.captures import CaptureOptions
-from spl_al.photon.io import CAPTURE_SUFFIXES
+from spl_al.photon.io import SUPPORTED_FORMATS, list_captures
 
 RELEASE_DEPTH_KEY = "depth_ssp"
 
@@ -44,21 +44,16 @@ class Frame:
 
 def input_files(inputs) -> list[tuple[Path, str]]:
     """(path, name) of every file to read: files as given, folders searched recursively
-    for capture / release suffixes (hidden files skipped), sorted per folder."""
+    by ``list_captures`` (the listing of every capture reader; hidden files skipped),
+    sorted per folder. A folder's other files are left alone: a README is no frame."""
     found = []
     for given in map(Path, inputs):
         if given.is_dir():
-            files = sorted(
-                p
-                for p in given.rglob("*")
-                if p.is_file()
-                and p.suffix.lower() in CAPTURE_SUFFIXES
-                and not any(part.startswith(".") for part in p.relative_to(given).parts)
-            )
+            files, _ = list_captures(given)
             if not files:
                 raise ValueError(
-                    f"{given}: holds no release-layout or capture file "
-                    f"({', '.join(CAPTURE_SUFFIXES)})."
+                    f"{given}: holds no release-layout or capture file; supported: "
+                    f"{SUPPORTED_FORMATS}."
                 )
             found += [(p, str(p.relative_to(given))) for p in files]
         elif given.is_file():
@@ -83,13 +78,13 @@ def _release_frame(path: Path, name: str, arrays, depth_key: str) -> Frame:
 
 
 def _capture_frame(path: Path, name: str, options: CaptureOptions, weights) -> Frame:
-    from spl_al.photon.io import load_capture
     from spl_al.photon.release import reconstruct_capture
 
-    capture = load_capture(path, options.format, **options.load_kwargs())
-    sigma_s = None if options.pulse_sigma_ps is None else options.pulse_sigma_ps * 1e-12
     rec = reconstruct_capture(
-        capture, method=options.method, pulse_sigma_s=sigma_s, weights=weights
+        options.load(path),
+        method=options.method,
+        pulse_sigma_s=options.pulse_sigma_s,
+        weights=weights,
     )
     return Frame(name, rec.depth_m.astype(np.float32), rec.msppp, rec.sbr, "capture")
 
