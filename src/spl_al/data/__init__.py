@@ -9,6 +9,8 @@ Public API:
 - ``make_segmentation_dataset``: procedural street scenes with per-pixel labels, observed.
 - ``load_folder``: the authors' released layout or a generic ``root/{class}/`` folder.
 - ``load_unlabeled_folder``: depth files without labels, the pool of a human oracle.
+- ``spl_al.data.sources`` (imported on its own): one module per config ``source``
+  behind a registry; ``build_dataset(entry)`` makes a config entry's dataset.
 - ``observe``: observed images of clean depth at per-sample conditions.
 - ``contact_sheet``, ``variants_sheet``: PNG pictures of a dataset.
 - ``validation_split``: a seeded, class-stratified cut of the training pool for tuning.

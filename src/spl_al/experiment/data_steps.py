@@ -13,79 +13,18 @@ import numpy as np
 
 
 def make_dataset(entry: dict, out_path, release_dir=None) -> dict:
-    """Synthesize (or import) a dataset's observed images and save them to ``out_path``.
+    """Build a dataset's observed images from its source and save them to ``out_path``.
 
-    ``entry`` is the dataset's config: ``task``, ``source`` ("synthetic", "folder",
-    "unlabeled" or "captures"), ``path``, ``depth_key``, ``reflectance_key``,
-    ``levels_file`` and ``n_per_class`` for folders (``spl_al.data.load_folder``),
-    ``standin`` (synthesize when the folder is not given) and ``synthesis`` (keyword
-    arguments of the generator). A captures dataset is read from ``release_dir``, the
+    ``entry`` is the dataset's config; its ``source`` names one of
+    ``spl_al.data.sources`` (synthetic, folder, unlabeled, captures: the keys each
+    reads are in its module). A captures dataset is read from ``release_dir``, the
     release-layout folder ``release_captures`` made of its captures.
     """
-    from spl_al.data import load_folder, make_classification_dataset, make_segmentation_dataset
+    from spl_al.data.sources import build_dataset
 
-    if entry["source"] == "captures":
-        entry = _captures_as_folder(entry, release_dir)
-    synthesis = dict(entry.get("synthesis", {}))
-    if "image_shape" in synthesis:
-        synthesis["image_shape"] = tuple(synthesis["image_shape"])
-    standin = False
-    if entry["source"] == "unlabeled":
-        dataset = _unlabeled_dataset(entry, synthesis)
-    elif entry["source"] == "folder" and entry.get("path"):
-        root = Path(entry["path"])
-        if not root.is_dir():
-            raise ValueError(f"dataset folder {root} does not exist (config key 'path').")
-        dataset = load_folder(
-            root,
-            depth_key=entry.get("depth_key", "depth_ssp"),
-            reflectance_key=entry.get("reflectance_key"),
-            image_shape=synthesis.get("image_shape"),
-            test_fraction=synthesis.get("test_fraction", 0.3),
-            seed=synthesis.get("seed", 0),
-            levels_file=entry.get("levels_file"),
-            n_per_class=entry.get("n_per_class"),
-        )
-    elif entry["source"] == "folder" and not entry.get("standin", False):
-        raise ValueError(
-            "dataset source is 'folder' but no 'path' is given; set 'path' or 'standin: true'."
-        )
-    else:
-        standin = entry["source"] == "folder"
-        make = (
-            make_classification_dataset
-            if entry["task"] == "classification"
-            else make_segmentation_dataset
-        )
-        dataset = make(**synthesis)
-    dataset.meta["synthetic_standin"] = standin
+    dataset = build_dataset(entry, release_dir=release_dir)
     dataset.save(out_path)
-    return {"samples": len(dataset), "standin": standin}
-
-
-def _captures_as_folder(entry: dict, release_dir) -> dict:
-    """A captures entry as the folder entry of its reconstructions (labeled or not).
-
-    With ``oracle: human`` the reconstructions are an unlabeled folder, read flat: its
-    ``seed_labels`` name the frames ``{capture stem}.npz``.
-    """
-    if release_dir is None:
-        raise ValueError("a captures dataset needs the folder of its reconstructions.")
-    nested = sorted(p for p in Path(release_dir).rglob("*.npz") if p.parent != Path(release_dir))
-    if entry.get("oracle") == "human" and nested:
-        raise ValueError(
-            f"config key 'path': with oracle: human the captures must lie directly in "
-            f"{entry['path']} (an unlabeled pool is read flat); found "
-            f"{nested[0].relative_to(release_dir).parent}/."
-        )
-    return {
-        **entry,
-        "source": "unlabeled" if entry.get("oracle") == "human" else "folder",
-        "path": str(release_dir),
-        "depth_key": "depth_ssp",
-        "reflectance_key": "intensity",
-        "levels_file": None,
-    }
+    return {"samples": len(dataset), "standin": dataset.meta["synthetic_standin"]}
 
 
 def reconstruct_captures(entry: dict, shard: int, out_path, sspi_weights=None) -> dict:
@@ -107,30 +46,6 @@ def release_captures(entry: dict, shard_paths, out_dir) -> dict:
     options = CaptureOptions.from_dict(entry.get("captures"))
     write_release(shard_paths, out_dir, options)
     return {"frames": sum(1 for _ in Path(out_dir).rglob("*.npz"))}
-
-
-def _unlabeled_dataset(entry: dict, synthesis: dict):
-    """An unlabeled folder (human oracle); its seed labels' test rows are the test split."""
-    from spl_al.data.unlabeled import load_unlabeled_folder
-
-    if not entry.get("path") or not Path(entry["path"]).is_dir():
-        raise ValueError(
-            f"config key 'path': {entry.get('path')!r} is not a folder of depth files."
-        )
-    dataset = load_unlabeled_folder(
-        entry["path"],
-        entry.get("classes"),
-        task=entry["task"],
-        seed_labels=entry.get("seed_labels"),
-        depth_key=entry.get("depth_key", "depth_ssp"),
-        image_shape=synthesis.get("image_shape"),
-    )
-    if not dataset.test_idx.size:
-        raise ValueError(
-            "config key 'seed_labels': no row has split 'test'; label a few samples as test "
-            "there, they measure the model every round."
-        )
-    return dataset
 
 
 def make_variant_shard(

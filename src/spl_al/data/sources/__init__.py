@@ -1,0 +1,37 @@
+"""Dataset sources: where a dataset's observed images come from, one module per
+source behind one registry (the config's ``datasets.NAME.source``).
+
+``build_dataset(entry, release_dir=None)`` builds the ``Dataset`` of a config entry
+through the source it names; ``names()`` lists the sources, ``get(name)`` gives one's
+``build`` function, ``register(name)`` adds one. The contract a source keeps is in
+``spl_al.data.sources.base``; ``tests/test_sources.py`` checks every registered one.
+
+- synthetic: procedural images (``spl_al.data.synthetic``).
+- folder: a folder of labeled depth images (``spl_al.data.external``), or a
+  synthetic stand-in when no path is given and ``standin: true``.
+- unlabeled: a folder of depth images for a human oracle (``spl_al.data.unlabeled``).
+- captures: raw photon captures, read from the folder of their reconstructions.
+"""
+
+from spl_al.data.sources import captures, folder, synthetic, unlabeled
+from spl_al.data.sources.base import (
+    Source,
+    build_dataset,
+    get,
+    names,
+    register,
+    synthesis_options,
+)
+
+__all__ = [
+    "Source",
+    "build_dataset",
+    "captures",
+    "folder",
+    "get",
+    "names",
+    "register",
+    "synthesis_options",
+    "synthetic",
+    "unlabeled",
+]
