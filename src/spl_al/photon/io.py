@@ -30,16 +30,18 @@ from __future__ import annotations
 from dataclasses import dataclass
 from pathlib import Path
 
+from spl_al.photon import formats
 from spl_al.photon.capture import Capture, time_unit_s
 from spl_al.photon.events import PhotonEvents
+from spl_al.photon.formats import MAT_SUFFIX, FileOptions
 
-FORMATS = ("auto", "sparse_mat", "timestamps_mat", "cube", "ptu")
-CAPTURE_SUFFIXES = (".mat", ".npy", ".npz", ".h5", ".hdf5", ".ptu")
+# All derived from the registry (``spl_al.photon.formats``): a new format adds itself.
+FORMATS = ("auto", *formats.names())
+CAPTURE_SUFFIXES = formats.suffixes()
 # The formats in words, for the one line that refuses any other file.
-SUPPORTED_FORMATS = ".mat, .ptu, HDF5 (.h5, .hdf5) and .npy/.npz count cubes"
+SUPPORTED_FORMATS = formats.base.files_in_words()
 _SUPPORTED = (
-    "supported: a .mat with a sparse pixels x bins matrix, a .mat with an H x W cell array "
-    "of arrival times, a 3-D count cube in .mat/.npy/.npz/.h5, or a PicoQuant .ptu image "
+    f"supported: {formats.base.formats_in_words()} "
     "(options: format, key, time_unit, bin_width_s, gate_s, shape, order, time_axis, channel)"
 )
 
@@ -75,37 +77,46 @@ def load_capture(
             gate, a cube whose time axis cannot be told, a PTU without image markers.
     """
     path = Path(path)
-    if format not in FORMATS:
-        raise ValueError(f"format {format!r} is not known; expected one of {', '.join(FORMATS)}.")
+    fmt = None if format == "auto" else formats.get(format)
     if not path.is_file():
         raise ValueError(f"{path}: no such capture file.")
-    unit_s = time_unit_s(time_unit)
-    suffix = path.suffix.lower()
-    if format == "ptu" or (format == "auto" and suffix == ".ptu"):
-        from spl_al.photon.formats.ptu import read_ptu
-
-        return read_ptu(path, channel=channel)
-    if suffix != ".mat":
-        if suffix not in CAPTURE_SUFFIXES:
-            raise ValueError(not_a_capture(path))
-        if format not in ("auto", "cube"):
-            raise ValueError(f"{path}: not a capture file this reader knows; {_SUPPORTED}.")
-        from spl_al.photon.formats.cube import read_cube_file
-
-        return read_cube_file(
-            path, key=key, time_axis=time_axis, bin_width_s=bin_width_s, unit_s=unit_s
-        )
-    return _load_mat(
-        path,
-        format,
+    options = FileOptions(
         key=key,
-        unit=time_unit,
-        unit_s=unit_s,
+        time_unit=time_unit,
+        unit_s=time_unit_s(time_unit),
         bin_width_s=bin_width_s,
         gate_s=gate_s,
         shape=shape,
         order=order,
         time_axis=time_axis,
+        channel=channel,
+    )
+    suffix = path.suffix.lower()
+    if fmt is not None and fmt.any_suffix:
+        return fmt.read(path, options, None)
+    if suffix not in CAPTURE_SUFFIXES:
+        raise ValueError(not_a_capture(path))
+    if fmt is not None and suffix not in fmt.suffixes:
+        raise ValueError(f"{path}: not a capture file this reader knows; {_SUPPORTED}.")
+    if suffix != MAT_SUFFIX:
+        return (fmt or formats.of_suffix(suffix)[0]).read(path, options, None)
+    from spl_al.photon.formats.matfile import read_mat
+
+    variables = read_mat(path)
+    return (fmt or _detect_mat(path, variables, key)).read(path, options, variables)
+
+
+def _detect_mat(path: Path, variables: dict, key: str | None) -> formats.CaptureFormat:
+    """The format of a .mat by what its variables (or the one named ``key``) hold."""
+    for fmt in formats.of_suffix(MAT_SUFFIX):
+        names = fmt.detect(variables)
+        if (key is None and names) or key in names:
+            return fmt
+    from spl_al.photon.formats.matfile import describe_variables
+
+    raise ValueError(
+        f"{path}: no photon data found among its variables "
+        f"({describe_variables(variables)}); {_SUPPORTED}."
     )
 
 
@@ -113,7 +124,7 @@ def load_capture(
 # ``photon.real_capture_options`` and the command line's flags all take.
 READ_KEYS = ("format", "time_unit", "bin_width_ps", "pulse_sigma_ps", "key", "time_axis", "channel")
 # Cubes in these files state their timing only by name (spl_al.photon.formats.timing).
-_CUBE_SUFFIXES = (".npy", ".npz", ".h5", ".hdf5")
+_CUBE_SUFFIXES = tuple(s for s in formats.get("cube").suffixes if s != MAT_SUFFIX)
 
 
 @dataclass(frozen=True)
@@ -215,61 +226,6 @@ def list_captures(root, recursive: bool = True) -> tuple[list[Path], list[Path]]
         if p.is_file() and not any(part.startswith(".") for part in p.relative_to(root).parts)
     )
     return [p for p in files if is_capture(p)], [p for p in files if not is_capture(p)]
-
-
-def _load_mat(
-    path: Path, format: str, *, key, unit, unit_s, bin_width_s, gate_s, shape, order, time_axis
-):
-    from spl_al.photon.formats.cube import cube_names, read_cube
-    from spl_al.photon.formats.matfile import describe_variables, read_mat
-    from spl_al.photon.formats.sparse_mat import read_sparse_mat, sparse_variables
-    from spl_al.photon.formats.timestamps import read_timestamps_mat, timestamp_candidates
-
-    variables = read_mat(path)
-    if format == "auto":
-        format = _detect_mat(variables, key, sparse_variables, timestamp_candidates, cube_names)
-        if format is None:
-            raise ValueError(
-                f"{path}: no photon data found among its variables "
-                f"({describe_variables(variables)}); {_SUPPORTED}."
-            )
-    if format == "sparse_mat":
-        return read_sparse_mat(
-            path,
-            variables,
-            key=key,
-            shape=shape,
-            order=order,
-            bin_width_s=bin_width_s,
-            unit_s=unit_s,
-        )
-    if format == "timestamps_mat":
-        return read_timestamps_mat(
-            path,
-            variables,
-            key=key,
-            unit=unit,
-            unit_s=unit_s,
-            bin_width_s=bin_width_s,
-            gate_s=gate_s,
-        )
-    return read_cube(
-        path,
-        variables,
-        key=key,
-        time_axis=time_axis,
-        bin_width_s=bin_width_s,
-        unit_s=unit_s,
-    )
-
-
-def _detect_mat(variables, key, *finders) -> str | None:
-    """The format of a .mat by what its variables (or the one named ``key``) hold."""
-    for fmt, find in zip(("sparse_mat", "timestamps_mat", "cube"), finders, strict=True):
-        names = find(variables)
-        if (key is None and names) or key in names:
-            return fmt
-    return None
 
 
 def load_mat(

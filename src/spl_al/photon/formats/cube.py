@@ -16,6 +16,7 @@ import numpy as np
 
 from spl_al.photon.capture import Capture
 from spl_al.photon.events import events_from_counts
+from spl_al.photon.formats.base import CaptureFormat, FileOptions, register
 from spl_al.photon.formats.choose import choose_key
 from spl_al.photon.formats.timing import BIN_WIDTH_NAMES, counts_capture
 
@@ -154,3 +155,28 @@ def read_cube(
         unit_s=unit_s,
         notes=(f"time axis {axis} of {key}",),
     )
+
+
+def _read(path: Path, options: FileOptions, variables: dict | None) -> Capture:
+    """A .mat's cube from its variables (read once by ``load_capture``), else the file's."""
+    arrays = _read_arrays(path) if variables is None else variables
+    return read_cube(
+        path,
+        arrays,
+        key=options.key,
+        time_axis=options.time_axis,
+        bin_width_s=options.bin_width_s,
+        unit_s=options.unit_s,
+    )
+
+
+register(
+    CaptureFormat(
+        name="cube",
+        suffixes=CUBE_SUFFIXES,
+        read=_read,
+        describe="a 3-D count cube in .mat/.npy/.npz/.h5",
+        files="HDF5 (.h5, .hdf5) and .npy/.npz count cubes",
+        detect=cube_names,
+    )
+)

@@ -15,6 +15,7 @@ import numpy as np
 
 from spl_al.photon.capture import Capture
 from spl_al.photon.events import PhotonEvents
+from spl_al.photon.formats.base import CaptureFormat, FileOptions, register
 
 _BAND_BYTES = 256 << 20  # decode at most ~256 MB of histogram at once
 
@@ -81,3 +82,19 @@ def read_ptu(path: Path, *, channel: int | None = None) -> Capture:
         format="ptu",
         path=str(path),
     )
+
+
+def _read(path: Path, options: FileOptions, variables: dict | None) -> Capture:
+    return read_ptu(path, channel=options.channel)
+
+
+register(
+    CaptureFormat(
+        name="ptu",
+        suffixes=(".ptu",),
+        read=_read,
+        describe="a PicoQuant .ptu image",
+        files=".ptu",
+        any_suffix=True,
+    )
+)

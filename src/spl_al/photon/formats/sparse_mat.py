@@ -16,7 +16,9 @@ import numpy as np
 
 from spl_al.photon.capture import Capture
 from spl_al.photon.events import events_from_counts
+from spl_al.photon.formats.base import CaptureFormat, FileOptions, register
 from spl_al.photon.formats.choose import choose_key
+from spl_al.photon.formats.matfile import read_mat
 from spl_al.photon.formats.timing import counts_capture
 
 UGV45M_BIN_WIDTH_S = 100e-12
@@ -88,3 +90,27 @@ def read_sparse_mat(
         unit_s=unit_s,
         layout=("ugv45m", UGV45M_BIN_WIDTH_S) if ugv45m else None,
     )
+
+
+def _read(path: Path, options: FileOptions, variables: dict | None) -> Capture:
+    return read_sparse_mat(
+        path,
+        read_mat(path) if variables is None else variables,
+        key=options.key,
+        shape=options.shape,
+        order=options.order,
+        bin_width_s=options.bin_width_s,
+        unit_s=options.unit_s,
+    )
+
+
+register(
+    CaptureFormat(
+        name="sparse_mat",
+        suffixes=(".mat",),
+        read=_read,
+        describe="a .mat with a sparse pixels x bins matrix",
+        files=".mat",
+        detect=sparse_variables,
+    )
+)

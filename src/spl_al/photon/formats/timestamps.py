@@ -18,7 +18,9 @@ import numpy as np
 
 from spl_al.photon.capture import Capture
 from spl_al.photon.events import PhotonEvents
+from spl_al.photon.formats.base import CaptureFormat, FileOptions, register
 from spl_al.photon.formats.choose import choose_key
+from spl_al.photon.formats.matfile import read_mat
 from spl_al.photon.formats.timing import stated_gate, stated_pulse_sigma_s
 
 MAX_BINS = 1 << 24  # 16.8 M bins: beyond this the native resolution is surely too fine
@@ -141,3 +143,27 @@ def read_timestamps_mat(
         format="timestamps_mat",
         path=str(path),
     )
+
+
+def _read(path: Path, options: FileOptions, variables: dict | None) -> Capture:
+    return read_timestamps_mat(
+        path,
+        read_mat(path) if variables is None else variables,
+        key=options.key,
+        unit=options.time_unit,
+        unit_s=options.unit_s,
+        bin_width_s=options.bin_width_s,
+        gate_s=options.gate_s,
+    )
+
+
+register(
+    CaptureFormat(
+        name="timestamps_mat",
+        suffixes=(".mat",),
+        read=_read,
+        describe="a .mat with an H x W cell array of arrival times",
+        files=".mat",
+        detect=timestamp_candidates,
+    )
+)
