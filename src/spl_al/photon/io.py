@@ -1,6 +1,9 @@
 """Import of real photon captures: one entry point, ``load_capture``, for every format.
 
-Formats (``format="auto"`` tells them apart by the file):
+Formats are registered in ``spl_al.photon.formats``, one module each (the contract is
+in ``spl_al.photon.formats.base``); ``load_capture`` dispatches through the registry,
+and ``FORMATS``, ``CAPTURE_SUFFIXES``, ``SUPPORTED_FORMATS`` and ``is_capture`` derive
+from it. The registered ones (``format="auto"`` tells them apart by the file):
 
 =================  ==================================================================
 ``sparse_mat``     ``.mat`` holding a sparse pixels x bins count matrix (the ugv45m frames)
