@@ -39,14 +39,20 @@ from spl_al.photon.events import PhotonEvents
 from spl_al.photon.formats import MAT_SUFFIX, FileOptions
 
 # All derived from the registry (``spl_al.photon.formats``): a new format adds itself.
+# These are the formats registered at import (every module in ``formats/__init__``);
+# ``load_capture``, ``is_capture`` and the messages ask the registry itself.
 FORMATS = ("auto", *formats.names())
 CAPTURE_SUFFIXES = formats.suffixes()
 # The formats in words, for the one line that refuses any other file.
 SUPPORTED_FORMATS = formats.base.files_in_words()
-_SUPPORTED = (
-    f"supported: {formats.base.formats_in_words()} "
-    "(options: format, key, time_unit, bin_width_s, gate_s, shape, order, time_axis, channel)"
-)
+
+
+def _supported() -> str:
+    """What is supported, in words, with the options, for a file no format reads."""
+    return (
+        f"supported: {formats.base.formats_in_words()} (options: format, key, time_unit, "
+        "bin_width_s, gate_s, shape, order, time_axis, channel)"
+    )
 
 
 def load_capture(
@@ -97,10 +103,10 @@ def load_capture(
     suffix = path.suffix.lower()
     if fmt is not None and fmt.any_suffix:
         return fmt.read(path, options, None)
-    if suffix not in CAPTURE_SUFFIXES:
+    if not formats.of_suffix(suffix):
         raise ValueError(not_a_capture(path))
     if fmt is not None and suffix not in fmt.suffixes:
-        raise ValueError(f"{path}: not a capture file this reader knows; {_SUPPORTED}.")
+        raise ValueError(f"{path}: not a capture file this reader knows; {_supported()}.")
     if suffix != MAT_SUFFIX:
         return (fmt or formats.of_suffix(suffix)[0]).read(path, options, None)
     from spl_al.photon.formats.matfile import read_mat
@@ -119,7 +125,7 @@ def _detect_mat(path: Path, variables: dict, key: str | None) -> formats.Capture
 
     raise ValueError(
         f"{path}: no photon data found among its variables "
-        f"({describe_variables(variables)}); {_SUPPORTED}."
+        f"({describe_variables(variables)}); {_supported()}."
     )
 
 
@@ -210,12 +216,14 @@ class ReadOptions:
 
 def not_a_capture(path) -> str:
     """The one line for a file of a format no reader knows, naming the supported ones."""
-    return f"{path}: not a capture file this reader knows; supported: {SUPPORTED_FORMATS}."
+    return (
+        f"{path}: not a capture file this reader knows; supported: {formats.base.files_in_words()}."
+    )
 
 
 def is_capture(path) -> bool:
     """Whether ``path`` has the suffix of a format ``load_capture`` reads."""
-    return Path(path).suffix.lower() in CAPTURE_SUFFIXES
+    return bool(formats.of_suffix(Path(path).suffix.lower()))
 
 
 def list_captures(root, recursive: bool = True) -> tuple[list[Path], list[Path]]:
