@@ -196,14 +196,14 @@ def test_training_notes_name_a_warm_start():
 def test_training_notes_name_steps_that_scale_with_images():
     from spl_al.config import training_notes
 
-    config = _merged()
-    assert training_notes(config, "street_seg") == []
-    config["datasets"]["street_seg"]["train"]["fit"]["steps_by"] = "images"
-    (note,) = training_notes(config, "street_seg")
+    config = _merged()  # street_pc trains every round fresh: no warm-start note
+    assert training_notes(config, "street_pc") == []
+    config["datasets"]["street_pc"]["train"]["fit"]["steps_by"] = "images"
+    (note,) = training_notes(config, "street_pc")
     assert "steps_by: images" in note and "steps" in note
     check_config(config, Path(__file__).resolve().parents[1] / "config" / "schema.yaml")
-    config["datasets"]["street_seg"]["train"]["fit"]["steps_by"] = "scans"
-    with pytest.raises(ValueError, match=r"'datasets.street_seg.train.fit.steps_by'"):
+    config["datasets"]["street_pc"]["train"]["fit"]["steps_by"] = "scans"
+    with pytest.raises(ValueError, match=r"'datasets.street_pc.train.fit.steps_by'"):
         check_config(config, Path(__file__).resolve().parents[1] / "config" / "schema.yaml")
 
 
