@@ -53,15 +53,3 @@ def real_captures():
         pytest.skip("real captures not given: set SPL_AL_REAL_CAPTURES to a folder of .mat files")
     return Path(folder)
 
-
-def pytest_collection_modifyitems(config, items):
-    """Test files with the most end-to-end (slow) tests first, each file kept whole and in
-    order: under the suite's ``-n 2 --dist loadfile`` the longest files start at once on
-    both workers and the fast ones fill in behind them, instead of the CI DAG's file
-    starting last and running alone."""
-    slow = {}
-    for item in items:
-        slow.setdefault(item.path, 0)
-        if item.get_closest_marker("slow"):
-            slow[item.path] += 1
-    items.sort(key=lambda item: -slow[item.path])  # stable: files stay contiguous
