@@ -52,4 +52,3 @@ def real_captures():
     if not folder or not any(Path(folder).glob("*.mat")):
         pytest.skip("real captures not given: set SPL_AL_REAL_CAPTURES to a folder of .mat files")
     return Path(folder)
-
