@@ -204,8 +204,8 @@ def segmentation_batch(ls: LabelStudio, workdir: Path, record: Path | None) -> d
     sys.path.insert(0, str(ROOT / "tests"))
     from label_studio_data import probabilities, segmentation_dataset
 
-    from spl_al.labeling.label_studio import mask_to_rle
     from spl_al.labeling import read_label_file, write_batch
+    from spl_al.labeling.label_studio import mask_to_rle
 
     started = time.perf_counter()
     data = segmentation_dataset()
