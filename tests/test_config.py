@@ -63,9 +63,13 @@ def _merged(*names: str) -> dict:
     """config/config.yaml with the named override files merged on top, as Snakemake does."""
     root = Path(__file__).resolve().parents[1] / "config"
     config = yaml.safe_load((root / "config.yaml").read_text())
+    user: dict = {}
     for name in names:
-        update_config(config, yaml.safe_load((root / name).read_text()))
-    return drop_removed(config)
+        update_config(user, yaml.safe_load((root / name).read_text()))
+    update_config(config, user)
+    drop_removed(config)
+    select_datasets(config, user)
+    return config
 
 
 SHIPPED = [
@@ -75,6 +79,7 @@ SHIPPED = [
     "decisive.yaml",
     "decisive-synth_cls.yaml",
     "decisive-street_seg.yaml",
+    "street.yaml",
 ]
 
 
@@ -88,28 +93,24 @@ def test_every_shipped_override_is_a_valid_config(name):
     check_plan(config)
 
 
-def test_decisive_config_extends_the_default_run_seeds_of_real_cls_only():
-    """Seeds 1-6 of the decisive run must be the default run's own rounds: the same
-    data, recipe and methods (plus the matched low-budget baselines), only more seeds
-    (and fewer experiments)."""
+def test_decisive_config_extends_the_default_run_of_real_cls():
+    """The decisive run's seeds 1-3 are the default run's own data, recipe and labeled
+    sets: only more seeds, every baseline of the paper, the two low-budget baselines
+    and the paper's fourth round (80 labeled)."""
     default, decisive = _merged(), _merged("decisive.yaml")
     assert list(decisive["datasets"]) == ["real_cls"]
     assert decisive["results"] != default["results"]
     ours, theirs = decisive["datasets"]["real_cls"], default["datasets"]["real_cls"]
     for key in ("synthesis", "variants", "al", "train", "task", "source"):
         assert ours[key] == theirs[key], key
-    for experiment in ("budget", "ablation"):
-        seeds = ours["experiments"][experiment]["seeds"]
-        assert len(seeds) == len(set(seeds)) >= 20
-        assert seeds[:6] == theirs["experiments"][experiment]["seeds"]
-        mine = {k: v for k, v in ours["experiments"][experiment].items() if k != "seeds"}
-        base = {k: v for k, v in theirs["experiments"][experiment].items() if k != "seeds"}
-        if experiment == "budget":  # the default's methods, plus two low-budget baselines
-            added = [m for m in mine["methods"] if m not in base["methods"]]
-            assert added == ["syn_typiclust", "syn_probcover"]
-            assert [m for m in mine["methods"] if m not in added] == base["methods"]
-            mine["methods"] = base["methods"]
-        assert mine == base
+    budget, base = ours["experiments"]["budget"], theirs["experiments"]["budget"]
+    assert len(budget["seeds"]) == len(set(budget["seeds"])) >= 16
+    assert budget["seeds"][:3] == base["seeds"]
+    assert set(base["methods"]) < set(budget["methods"])
+    paper = {"random", "entropy", "margin", "coreset", "badge", "duis"}
+    assert paper | {"syn_diversity", "syn_typiclust", "syn_probcover"} == set(budget["methods"])
+    assert budget["matched"] and budget["rounds"] == base["rounds"] + 1
+    assert set(ours["experiments"]["ablation"]["seeds"]) <= set(budget["seeds"])
     assert decisive["methods"] == default["methods"]
 
 
@@ -127,7 +128,9 @@ def test_each_decisive_config_runs_one_dataset_with_both_families(name, dataset)
     from spl_al.experiment.plan import experiments_of
     from spl_al.report.decomposition import METHODS
 
-    default, decisive = _merged(), _merged(name)
+    root = Path(__file__).resolve().parents[1] / "config"  # every dataset it defines
+    default = drop_removed(yaml.safe_load((root / "config.yaml").read_text()))
+    decisive = _merged(name)
     assert list(decisive["datasets"]) == [dataset]
     assert decisive["results"] == "results-decisive"
     ours, theirs = decisive["datasets"][dataset], default["datasets"][dataset]
@@ -180,7 +183,7 @@ def test_the_default_run_takes_the_steps_it_took_before_the_policy():
 def test_training_notes_name_a_warm_start():
     from spl_al.config import training_notes
 
-    config = _merged()
+    config = _merged("street.yaml")
     config["datasets"]["street_seg"]["train"]["warm_start"] = None
     assert training_notes(config, "street_seg") == []
     config["datasets"]["street_seg"]["train"]["warm_start"] = {"min_steps": 150}
@@ -196,14 +199,14 @@ def test_training_notes_name_a_warm_start():
 def test_training_notes_name_steps_that_scale_with_images():
     from spl_al.config import training_notes
 
-    config = _merged()  # street_pc trains every round fresh: no warm-start note
-    assert training_notes(config, "street_pc") == []
-    config["datasets"]["street_pc"]["train"]["fit"]["steps_by"] = "images"
-    (note,) = training_notes(config, "street_pc")
+    config = _merged()  # real_cls trains every round fresh: no warm-start note
+    assert training_notes(config, "real_cls") == []
+    config["datasets"]["real_cls"]["train"]["fit"]["steps_by"] = "images"
+    (note,) = training_notes(config, "real_cls")
     assert "steps_by: images" in note and "steps" in note
     check_config(config, Path(__file__).resolve().parents[1] / "config" / "schema.yaml")
-    config["datasets"]["street_pc"]["train"]["fit"]["steps_by"] = "scans"
-    with pytest.raises(ValueError, match=r"'datasets.street_pc.train.fit.steps_by'"):
+    config["datasets"]["real_cls"]["train"]["fit"]["steps_by"] = "scans"
+    with pytest.raises(ValueError, match=r"'datasets.real_cls.train.fit.steps_by'"):
         check_config(config, Path(__file__).resolve().parents[1] / "config" / "schema.yaml")
 
 
@@ -241,11 +244,31 @@ def test_only_datasets_keeps_exactly_the_named_ones_and_inherits_nothing_new():
     check_config(config, ROOT / "config" / "schema.yaml")
 
 
-def test_without_only_datasets_every_default_dataset_stays():
+def test_without_only_datasets_the_default_runs_datasets_run():
     config, user = merged({"datasets": {"real_cls": {"al": {"batch": 7}}}})
-    defaults = yaml.safe_load((ROOT / "config" / "config.yaml").read_text())["datasets"]
+    defaults = yaml.safe_load((ROOT / "config" / "config.yaml").read_text())
     assert select_datasets(config, user) == {}
-    assert list(config["datasets"]) == list(defaults)
+    assert list(config["datasets"]) == defaults["only_datasets"] == ["real_cls", "synth_cls"]
+    assert {"street_seg", "street_pc"} < set(defaults["datasets"])  # defined, not run
+    assert config["datasets"]["real_cls"]["al"]["batch"] == 7
+
+
+def test_a_default_dataset_set_to_null_leaves_the_default_list():
+    config, user = merged({"datasets": {"synth_cls": None}})
+    select_datasets(config, user)
+    assert list(config["datasets"]) == config["only_datasets"] == ["real_cls"]
+
+
+def test_an_added_dataset_must_be_named_in_only_datasets():
+    """A config that adds a dataset and forgets only_datasets would otherwise run the
+    defaults and silently not its own."""
+    mine = {"task": "classification", "source": "folder", "path": "/data/mine"}
+    config, user = merged({"datasets": {"mine": mine}})
+    with pytest.raises(ValueError, match=r"'datasets.mine' .* only_datasets"):
+        select_datasets(config, user)
+    config, user = merged({"only_datasets": ["mine"], "datasets": {"mine": mine}})
+    select_datasets(config, user)
+    assert list(config["datasets"]) == ["mine"]
 
 
 def test_a_reused_default_name_lists_every_key_it_inherited():

@@ -92,7 +92,7 @@ def test_two_human_rounds_match_the_simulated_oracle(tmp_path):
     results, labels, ls_labels = tmp_path / "results", tmp_path / "labels", tmp_path / "ls"
     (tmp_path / "config.yaml").write_text(
         f"results: {results}\ndevice: cpu\n"
-        "datasets:\n  real_cls: null\n  synth_cls: null\n  street_seg: null\n"
+        "only_datasets: [sim, hum, ls]\ndatasets:\n"
         f"  sim:{DATASET}"
         f"  hum:\n    oracle: human\n    labels_dir: {labels}{DATASET}"
         f"  ls:\n    oracle: human\n    labels_dir: {ls_labels}{DATASET}"

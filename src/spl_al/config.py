@@ -53,11 +53,15 @@ def select_datasets(config: dict, user: dict) -> dict[str, dict]:
 
     ``config`` is the merged configuration (null keys removed), ``user`` what the
     override files and ``--config`` gave alone, before config/config.yaml was merged
-    under them. Without ``only_datasets`` every dataset is kept, as merged. Returns,
-    for each kept dataset whose entry took keys the overrides did not give (it reuses
-    a name of config/config.yaml), ``{dotted key: value}`` of those inherited keys.
+    under them. Without ``only_datasets`` every dataset is kept, as merged. A dataset
+    an override sets to null leaves the list. When only config/config.yaml sets it (the
+    default run's datasets), a dataset an override defines must be on it (an override
+    that adds a dataset names what it runs). Returns, for each kept dataset of an
+    override's ``only_datasets`` whose entry took keys the overrides did not give (it
+    reuses a name of config/config.yaml), ``{dotted key: value}`` of those keys.
     Raises ValueError naming the key: ``only_datasets`` empty, not a list of names or
-    naming no dataset; no dataset left; a dataset without ``source``.
+    naming no dataset; an override's dataset left out; no dataset left; a dataset
+    without ``source``.
     """
     datasets = config.get("datasets")
     if not isinstance(datasets, dict) or not datasets:
@@ -66,6 +70,10 @@ def select_datasets(config: dict, user: dict) -> dict[str, dict]:
             "(a dataset set to null is removed)."
         )
     only = config.get(ONLY_DATASETS)
+    if isinstance(only, list):
+        # an override's null removes a dataset from the list too
+        removed = {n for n, v in (user.get("datasets") or {}).items() if v is None}
+        only = config[ONLY_DATASETS] = [n for n in only if n not in removed]
     if only is not None:
         if not isinstance(only, list) or not all(isinstance(n, str) for n in only):
             raise ValueError(
@@ -82,6 +90,17 @@ def select_datasets(config: dict, user: dict) -> dict[str, dict]:
                     f"config key {ONLY_DATASETS!r} names {name!r}, which is not a dataset "
                     f"under 'datasets'; expected one of {', '.join(sorted(datasets))}."
                 )
+        if ONLY_DATASETS not in user:
+            # config/config.yaml's own list: a dataset the overrides define must be on it
+            own = drop_removed(_copy(user)).get("datasets") or {}
+            for name in own:
+                if name not in only:
+                    raise ValueError(
+                        f"config key 'datasets.{name}' defines a dataset that "
+                        f"{ONLY_DATASETS} ({', '.join(only)}, config/config.yaml's) "
+                        f"leaves out; expected {ONLY_DATASETS}: [...] in the same file, "
+                        f"listing {name!r} and every other dataset to run."
+                    )
         for name in [n for n in datasets if n not in only]:
             del datasets[name]
     for name, entry in datasets.items():
@@ -91,7 +110,7 @@ def select_datasets(config: dict, user: dict) -> dict[str, dict]:
                 f"{', '.join(SOURCES)} (a new dataset gives task, source, variants, al, "
                 "train and experiments itself)."
             )
-    if only is None:
+    if only is None or ONLY_DATASETS not in user:
         return {}
     own = drop_removed(_copy(user)).get("datasets") or {}
     inherited = {}
