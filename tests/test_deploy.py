@@ -83,6 +83,24 @@ def test_onnxruntime_reproduces_torch_on_the_test_split(exported, rounds, task):
     assert "MSPPP high" in md and "argmax agreement" in md and card["provenance"]["config_hash"]
 
 
+def test_a_valid_pixel_at_zero_metres_is_a_void_on_both_sides(rounds, tmp_path):
+    """A reconstruction can mark a pixel valid at exactly 0 m; the deployed graph's rule
+    (finite, positive depth) makes it a void, and the check must give torch the same
+    void, or that one image's input differs and the export is refused (seen on
+    real_cls: 0.012 logit difference from one such pixel)."""
+    from spl_al.data import Dataset
+
+    data = Dataset.load(rounds["classification"].with_name("dataset.npz"))
+    for i in data.test_idx[:3]:
+        rows, cols = np.nonzero(data.valid[i])
+        data.depth_m[i, rows[: len(rows) // 3], cols[: len(rows) // 3]] = 0.0
+    path = data.save(tmp_path / "dataset.npz", precision="float32")
+    card = export_onnx(
+        rounds["classification"], tmp_path / "zero.onnx", dataset_path=path, log=lambda _: None
+    )
+    assert card["onnx"]["check"]["max_abs_logit_diff"] <= MAX_LOGIT_DIFF
+
+
 def test_card_records_what_predict_needs(rounds):
     card = read_card(rounds["segmentation"].with_name("model.card.json"))
     assert card["data"]["image_shape"] == [16, 64] and len(card["data"]["colours"]) == 7

@@ -52,7 +52,12 @@ def _check_out(out_path: Path) -> None:
 
 
 def _test_split(card: dict, dataset_path) -> tuple[np.ndarray, np.ndarray]:
-    """The test split's depth (NaN at voids) and validity, with their shape checked."""
+    """The test split's depth (NaN at voids) and validity, with their shape checked.
+
+    Validity is the deployed model's rule (``valid_of``: finite and positive depth),
+    so torch and onnxruntime see the same voids: a reconstruction can mark a pixel
+    valid at exactly 0 m (7 of 2.5 million pixels of real_cls), which the deployed
+    graph treats as a void."""
     from spl_al.data import SCENE_FIELDS, Dataset
 
     path = dataset_path or card["data"].get("path")
@@ -68,8 +73,9 @@ def _test_split(card: dict, dataset_path) -> tuple[np.ndarray, np.ndarray]:
             f"{card['data']['classes']}; give the dataset the model was trained on."
         )
     test = dataset.test_idx
-    valid = dataset.valid[test]
-    return np.where(valid, dataset.depth_m[test], np.nan).astype(np.float32), valid
+    depth = dataset.depth_m[test]
+    valid = dataset.valid[test] & np.isfinite(depth) & (depth > 0)  # graph.valid_of
+    return np.where(valid, depth, np.nan).astype(np.float32), valid
 
 
 def torch_logits(model, depth_m, valid, batch_size: int = 64) -> np.ndarray:
