@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 
 from spl_al.photon import SensorParams, load_mat, reconstruct, simulate_photons
-from spl_al.photon.demo import demo_scene
+from spl_al.photon.pictures import demo_scene
 
 
 def test_simulated_scene_at_a_good_condition(sspi_weights):

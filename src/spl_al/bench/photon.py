@@ -21,7 +21,7 @@ import numpy as np
 
 from spl_al.bench.timing import markdown_table, median_seconds
 from spl_al.photon import SensorParams, reconstruct, simulate_photons
-from spl_al.photon.demo import demo_scene
+from spl_al.photon.pictures import demo_scene
 from spl_al.photon.reference import simulate_photons_loop
 
 CONDITIONS = ((2.0, 0.2), (5.0, 1.0), (10.0, 5.0))

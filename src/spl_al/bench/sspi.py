@@ -7,7 +7,7 @@ Two tables, each with the maximum-likelihood methods beside SSPI:
    reconstructed by ``sspi`` and ``pooled``; their depth agreement on the pixels
    both reconstruct (median |difference|, fraction within 10 cm / 30 cm) and the
    time per frame.
-2. Simulated: the demo scene (``spl_al.photon.demo.demo_scene``, 64x64, 4-10 m)
+2. Simulated: the demo scene (``spl_al.photon.pictures.demo_scene``, 64x64, 4-10 m)
    at the weights' bin width (1024 bins of 80 ps, sigma 2 bins) over a grid of
    MSPPP x SBR; per method the fraction of all pixels within 10 cm of the truth
    (voids count as misses), the RMSE over reconstructed pixels, the void fraction
@@ -30,7 +30,7 @@ import numpy as np
 
 from spl_al.bench.timing import markdown_table
 from spl_al.photon import SensorParams, load_mat, reconstruct, simulate_photons
-from spl_al.photon.demo import demo_scene, depth_agreement
+from spl_al.photon.pictures import demo_scene, depth_agreement
 
 MSPPP = (1.0, 2.0, 5.0, 10.0)
 SBR = (0.05, 0.2, 1.0, 5.0)

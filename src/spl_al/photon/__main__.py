@@ -108,23 +108,23 @@ def main(argv: list[str] | None = None) -> int:
     _capture_options(parser)
     args = parser.parse_args(argv)
 
-    from spl_al.photon import demo
+    from spl_al.photon import pictures
 
     try:
         if args.demo:
-            demo.render_condition_grid(
+            pictures.render_condition_grid(
                 args.demo, seed=args.seed, method=args.method, weights=args.weights
             )
             print(f"wrote {args.demo}")
         else:
-            _real(args, demo)
+            _real(args, pictures)
     except (ValueError, OSError) as exc:
         print(f"error: {exc}", file=sys.stderr)
         return 2
     return 0
 
 
-def _real(args, demo) -> None:
+def _real(args, pictures) -> None:
     """--real: pictures of a capture with the sensor from its file and its photons."""
     from spl_al.photon.estimate import estimate_pulse_sigma
 
@@ -136,7 +136,7 @@ def _real(args, demo) -> None:
         sigma_s *= capture.bin_width_s
     methods = ("lmf", "pooled", "sspi") if args.sspi else ("lmf", "pooled")
     binned = capture.for_reconstruction(sigma_s)
-    recs = demo.render_real_capture(
+    recs = pictures.render_real_capture(
         binned.events,
         binned.sensor(sigma_s),
         out,
@@ -147,7 +147,7 @@ def _real(args, demo) -> None:
     )
     print(f"{args.capture}: {capture.describe()}, pulse sigma {sigma_s * 1e12:.0f} ps")
     if args.sspi:
-        a = demo.depth_agreement(recs["sspi"].depth_m, recs["pooled"].depth_m)
+        a = pictures.depth_agreement(recs["sspi"].depth_m, recs["pooled"].depth_m)
         print(
             f"{args.capture}: sspi vs pooled on {a['n_both']} pixels both reconstruct: "
             f"median |diff| {100 * a['median_abs_m']:.1f} cm, "
