@@ -9,7 +9,7 @@ import torch
 from al_synthetic import shapes_groups
 
 from spl_al.data import Dataset
-from spl_al.experiment.steps import (
+from spl_al.experiment.round_steps import (
     Compute,
     ModelFiles,
     RoundId,
@@ -116,7 +116,7 @@ def test_a_shared_fit_of_other_images_is_refused(tmp_path):
 
 
 def test_a_last_round_writes_no_scores_and_its_query_is_refused(tmp_path):
-    from spl_al.experiment.steps import query_round
+    from spl_al.experiment.round_steps import query_round
 
     data, labeled = _dataset(tmp_path)
     setup = {**SETUP, "method": {"strategy": "margin"}}

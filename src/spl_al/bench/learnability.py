@@ -143,7 +143,7 @@ def learner_score(
     """Accuracy (mIoU) on the observed images of samples ``held_out`` of the configured
     model trained on samples ``labeled`` (with their variants when ``variants``), as a
     pipeline round trains it."""
-    from spl_al.experiment.steps import model_for
+    from spl_al.experiment.round_steps import model_for
     from spl_al.training import TrainConfig, evaluate, train
 
     m = dataset.n_variants if variants else 0
@@ -255,7 +255,7 @@ def default_datasets(config_path: Path, names: list[str] | None, cache: Path):
 
     from spl_al.data import Dataset
     from spl_al.data.variants import make_variants
-    from spl_al.experiment.steps import make_dataset
+    from spl_al.experiment.data_steps import make_dataset
 
     config = yaml.safe_load(config_path.read_text())
     for name, entry in config["datasets"].items():

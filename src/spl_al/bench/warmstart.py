@@ -47,7 +47,7 @@ def sequence_scores(
 ) -> tuple[list[float], float]:
     """Validation scores (%) of one random-sampling sequence, and its seconds: every
     round trained cold, or (``warm``) rounds >= 1 fine-tuned with those fit fields."""
-    from spl_al.experiment.steps import model_for
+    from spl_al.experiment.round_steps import model_for
     from spl_al.training import TrainConfig, evaluate, train
 
     fit_idx, val_idx = tuning_split(data)

@@ -56,7 +56,9 @@ PRELOAD = (
     "spl_al.training",
     "spl_al.scoring",
     "spl_al.strategies",
-    "spl_al.experiment.steps",
+    "spl_al.experiment.data_steps",
+    "spl_al.experiment.round_steps",
+    "spl_al.experiment.report_steps",
     "spl_al.report",
 )
 """What the server imports once: everything a step of the workflow imports."""
