@@ -17,8 +17,8 @@ from torch import nn
 
 from spl_al.labels import IGNORE_INDEX
 from spl_al.models import model_input, reset_parameters, training_outputs
-from spl_al.training.config import TrainConfig, deterministic_algorithms, resolve_device
 from spl_al.training.precision import LossScaler, autocast, resolve_precision
+from spl_al.training.recipe import TrainConfig, deterministic_algorithms, resolve_device
 from spl_al.training.sgd import SGD
 
 

@@ -1,4 +1,4 @@
-"""Training configuration, device choice and the deterministic-execution context."""
+"""The training recipe (TrainConfig), device choice and the deterministic-execution context."""
 
 from __future__ import annotations
 
