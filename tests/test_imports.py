@@ -114,6 +114,53 @@ def layer_of(module: str) -> int:
     raise AssertionError(f"{module} is in no layer of tests/test_imports.py; give it one.")
 
 
+def defined_names(module: str) -> set[str]:
+    """Names a module binds at its top level (defs, classes, assignments, imports)."""
+    tree = ast.parse(MODULES[module].read_text())
+    names: set[str] = set()
+    for node in tree.body:
+        if isinstance(node, (ast.FunctionDef, ast.AsyncFunctionDef, ast.ClassDef)):
+            names.add(node.name)
+        elif isinstance(node, (ast.Import, ast.ImportFrom)):
+            names |= {(a.asname or a.name).split(".")[0] for a in node.names}
+        elif isinstance(node, (ast.Assign, ast.AnnAssign)):
+            targets = node.targets if isinstance(node, ast.Assign) else [node.target]
+            for target in targets:
+                names |= {n.id for n in ast.walk(target) if isinstance(n, ast.Name)}
+        elif isinstance(node, (ast.If, ast.Try)):  # guarded imports and definitions
+            for sub in ast.walk(node):
+                if isinstance(sub, (ast.Import, ast.ImportFrom)):
+                    names |= {(a.asname or a.name).split(".")[0] for a in sub.names}
+                elif isinstance(sub, (ast.FunctionDef, ast.ClassDef)):
+                    names.add(sub.name)
+    return names
+
+
+def test_every_spl_al_import_names_something_that_exists():
+    """A module moved or removed leaves no import of it behind, a function-local one
+    included (ruff cannot tell; the job that runs it fails only at run time)."""
+    missing = []
+    for module in MODULES:
+        tree = ast.parse(MODULES[module].read_text())
+        for node in ast.walk(tree):
+            if isinstance(node, ast.Import):
+                for alias in node.names:
+                    if alias.name.split(".")[0] == "spl_al" and alias.name not in MODULES:
+                        missing.append(f"{module}:{node.lineno} import {alias.name}")
+            elif isinstance(node, ast.ImportFrom):
+                base = base_of(module, node)
+                if base.split(".")[0] != "spl_al":
+                    continue
+                if base not in MODULES:
+                    missing.append(f"{module}:{node.lineno} from {base}")
+                    continue
+                for alias in node.names:
+                    full = f"{base}.{alias.name}"
+                    if full not in MODULES and alias.name not in defined_names(base):
+                        missing.append(f"{module}:{node.lineno} from {base} import {alias.name}")
+    assert not missing, missing
+
+
 def test_every_module_has_a_layer():
     for module in MODULES:
         layer_of(module)
@@ -283,3 +330,15 @@ def test_every_module_named_in_a_string_exists():
         if module not in MODULES or (function and function not in top_level_names(module))
     ]
     assert not missing, "no such module or function: " + ", ".join(missing)
+
+
+def test_every_workflow_step_names_a_function_that_exists():
+    """workflow/scripts hand their step to the warm server as "module:function"."""
+    steps = set()
+    for script in sorted((ROOT / "workflow" / "scripts").glob("*.py")):
+        steps |= set(re.findall(r"\"(spl_al[\w.]+):(\w+)\"", script.read_text()))
+    assert len(steps) > 15
+    missing = [
+        f"{m}:{f}" for m, f in sorted(steps) if m not in MODULES or f not in defined_names(m)
+    ]
+    assert not missing, missing

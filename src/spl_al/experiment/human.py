@@ -30,12 +30,12 @@ from spl_al.atomic import read_json, write_json
 def initial_set(
     dataset_path, al: dict, seed: int, out_path, oracle: str = "simulated", seed_labels=None
 ) -> dict:
-    """The round-0 labeled set: ``steps.initial_set`` for a simulated oracle; for a
+    """The round-0 labeled set: ``round_steps.initial_set`` for a simulated oracle; for a
     human one the training rows of ``seed_labels`` (when it has any) or a random draw."""
-    from spl_al.experiment import steps
+    from spl_al.experiment import round_steps
 
     if oracle != "human":
-        return steps.initial_set(dataset_path, al, seed, out_path)
+        return round_steps.initial_set(dataset_path, al, seed, out_path)
     from spl_al.data import Dataset
     from spl_al.data.label_files import listed_samples
     from spl_al.pool import initial_labeled_set
@@ -51,7 +51,7 @@ def initial_set(
         idx = listed
     else:
         idx = initial_labeled_set(len(dataset.train_idx), int(al["initial"]), int(seed))
-    return steps.write_initial_set(idx, seed, out_path)
+    return round_steps.write_initial_set(idx, seed, out_path)
 
 
 def _asked(record: dict) -> list[int]:
