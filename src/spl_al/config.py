@@ -69,6 +69,7 @@ def select_datasets(config: dict, user: dict) -> dict[str, dict]:
             "config key 'datasets' holds no dataset; expected at least one "
             "(a dataset set to null is removed)."
         )
+    own = drop_removed(_copy(user)).get("datasets") or {}  # what the overrides define
     only = config.get(ONLY_DATASETS)
     if isinstance(only, list):
         # an override's null removes a dataset from the list too
@@ -92,7 +93,6 @@ def select_datasets(config: dict, user: dict) -> dict[str, dict]:
                 )
         if ONLY_DATASETS not in user:
             # config/config.yaml's own list: a dataset the overrides define must be on it
-            own = drop_removed(_copy(user)).get("datasets") or {}
             for name in own:
                 if name not in only:
                     raise ValueError(
@@ -112,7 +112,6 @@ def select_datasets(config: dict, user: dict) -> dict[str, dict]:
             )
     if only is None or ONLY_DATASETS not in user:
         return {}
-    own = drop_removed(_copy(user)).get("datasets") or {}
     inherited = {}
     for name in only:
         given = _leaves(own.get(name) or {})

@@ -73,8 +73,12 @@ def _test_split(card: dict, dataset_path) -> tuple[np.ndarray, np.ndarray]:
             f"{card['data']['classes']}; give the dataset the model was trained on."
         )
     test = dataset.test_idx
+    import torch
+
+    from spl_al.deploy.graph import valid_of
+
     depth = dataset.depth_m[test]
-    valid = dataset.valid[test] & np.isfinite(depth) & (depth > 0)  # graph.valid_of
+    valid = dataset.valid[test] & valid_of(torch.from_numpy(depth)).numpy()
     return np.where(valid, depth, np.nan).astype(np.float32), valid
 
 
