@@ -53,24 +53,37 @@ CLIENT = textwrap.dedent(
 )
 
 
+@pytest.fixture(scope="module")
+def code(tmp_path_factory):
+    """The folder of jobs.py and client.py, on the PYTHONPATH of the server and clients."""
+    folder = tmp_path_factory.mktemp("warm_code")
+    (folder / "jobs.py").write_text(JOBS)
+    (folder / "client.py").write_text(CLIENT)
+    with pytest.MonkeyPatch.context() as mp:
+        mp.setenv("PYTHONPATH", f"{folder}{os.pathsep}{os.environ.get('PYTHONPATH', '')}")
+        yield folder
+
+
 @pytest.fixture
-def folder(tmp_path, monkeypatch):
-    (tmp_path / "jobs.py").write_text(JOBS)
-    (tmp_path / "client.py").write_text(CLIENT)
-    monkeypatch.setenv("PYTHONPATH", f"{tmp_path}{os.pathsep}{os.environ.get('PYTHONPATH', '')}")
+def folder(code, tmp_path, monkeypatch):
+    """The test's own working folder: the client's, so the job's files land there."""
     monkeypatch.chdir(tmp_path)
     return tmp_path
 
 
-@pytest.fixture
-def server(folder):
-    srv = Server.start(folder / "server.log")
-    yield srv
-    srv.stop()
+@pytest.fixture(scope="module")
+def server(code):
+    """One server for the module's jobs (its imports cost seconds); jobs fork from it."""
+    with pytest.MonkeyPatch.context() as mp:
+        mp.delenv(SOCKET_ENV, raising=False)  # Server.start sets it; undone after the module
+        srv = Server.start(code / "server.log")
+        yield srv
+        srv.stop()
 
 
 def client(job, kwargs, env=None, wait=True):
-    args = [sys.executable, "client.py", f"{job}.log", job, repr(kwargs)]
+    client_py = Path(os.environ["PYTHONPATH"].split(os.pathsep)[0]) / "client.py"
+    args = [sys.executable, str(client_py), f"{job}.log", job, repr(kwargs)]
     env = {**os.environ, **(env or {})}
     if not wait:
         return subprocess.Popen(args, env=env)

@@ -26,11 +26,6 @@ def snakemake(*args, cwd=ROOT):
     )
 
 
-def test_default_config_dry_runs():
-    run = snakemake("-n", "--cores", "1", "--quiet")
-    assert run.returncode == 0, run.stderr
-
-
 def test_unknown_config_key_fails_before_any_job_with_the_key_named():
     run = snakemake("-n", "--cores", "1", "--config", "bogus_key=1")
     assert run.returncode != 0
@@ -62,22 +57,6 @@ def test_override_file_changes_only_the_values_it_names(tmp_path):
     for name in [n for n in expected["datasets"] if n not in expected["only_datasets"]]:
         del expected["datasets"][name]  # defined, not in the default run
     assert got == expected
-
-
-def test_ci_config_keeps_the_defaults_it_does_not_name_and_drops_synth_cls(tmp_path):
-    got = effective_config(tmp_path, "--configfile", "config/ci.yaml")
-    default = yaml.safe_load((ROOT / "config" / "config.yaml").read_text())
-    assert sorted(got["datasets"]) == ["real_cls", "street_pc", "street_seg"]
-    assert got["datasets"]["real_cls"]["al"] == {"initial": 11, "batch": 6, "ratio_of": "all"}
-    assert got["methods"]["duis"] == {
-        "strategy": "duis",
-        "params": {"n_cand": 12, "alpha": 0.5},
-        "use_variants": True,
-    }
-    assert got["datasets"]["street_seg"]["task"] == "segmentation"
-    assert got["datasets"]["street_pc"]["train"]["model"]["arch"] == "pointnet2"
-    assert got["datasets"]["street_pc"]["synthesis"]["seed"] == 2  # the street scenes
-    assert got["methods"]["syn_badge"] == default["methods"]["syn_badge"]
 
 
 def test_a_missing_real_captures_folder_is_one_line_naming_the_variable(tmp_path):

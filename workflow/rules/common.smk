@@ -192,6 +192,13 @@ def dataset_params(dataset):
     return entry
 
 
+def dataset_threads(wildcards):
+    """Cores the dataset job uses: the synthesis's ``workers`` where the config sets
+    them (1 synthesises in the job's own process), else 2."""
+    entry = config["datasets"][wildcards.dataset]
+    return int((entry.get("synthesis") or {}).get("workers") or 2)
+
+
 def runs(dataset):
     """(method, seed) -> rounds for one dataset."""
     return dataset_runs(config, dataset)

@@ -12,7 +12,7 @@ rule dataset:
         f"{RESULTS}/benchmarks/{{dataset}}/dataset.tsv"
     conda:
         "../envs/spl-al.yaml"
-    threads: 2
+    threads: dataset_threads
     resources:
         mem_mb=res("dataset", "mem_mb", 4000),
         runtime=res("dataset", "runtime", 30),
