@@ -52,23 +52,3 @@ def real_captures():
     if not folder or not any(Path(folder).glob("*.mat")):
         pytest.skip("real captures not given: set SPL_AL_REAL_CAPTURES to a folder of .mat files")
     return Path(folder)
-
-
-# The end-to-end files first, longest first: `pytest -n 2 --dist loadfile` hands out
-# whole files in collection order, so the two workers start on the long runs and the
-# short files fill in behind them instead of one worker finishing a long run alone.
-LONG_FILES = (
-    "test_pipeline.py",
-    "test_human_workflow.py",
-    "test_doc_commands.py",
-    "test_captures_workflow.py",
-    "test_workflow.py",
-    "test_release_folder.py",
-    "test_plugins.py",
-    "test_scenes.py",
-)
-
-
-def pytest_collection_modifyitems(items):
-    rank = {name: i for i, name in enumerate(LONG_FILES)}
-    items.sort(key=lambda item: rank.get(item.path.name, len(LONG_FILES)))
