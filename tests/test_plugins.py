@@ -136,7 +136,17 @@ def test_a_broken_pick_stops_the_round_in_one_sentence(on_path, tmp_path, mode, 
     out = tmp_path / "round1" / "labeled.json"
     method = {"strategy": "broken", "params": {"mode": mode}}
     with pytest.raises(StrategyContractError) as err:
-        query_round(scores, labeled, method, 4, 3, 1, out, "toy", "mine")
+        query_round(
+            scores,
+            labeled,
+            method=method,
+            batch=4,
+            seed=3,
+            round_=1,
+            out_path=out,
+            dataset="toy",
+            method_name="mine",
+        )
     message = str(err.value)
     lab, unl = inputs.labeled_idx[0], inputs.unlabeled_idx[0]
     assert message.startswith("toy/mine seed 3: the query that makes round 1 stopped, as ")
@@ -238,11 +248,11 @@ def test_an_entry_point_strategy_runs_one_round_of_the_ci_dag(on_path, tmp_path)
     again = query_round(
         results / "real_cls" / "far" / "seed1" / "round0" / "scores.npz",
         results / "real_cls" / "initial" / "seed1.json",
-        {"strategy": "farthest"},
-        6,
-        1,
-        1,
-        tmp_path / "again.json",
+        method={"strategy": "farthest"},
+        batch=6,
+        seed=1,
+        round_=1,
+        out_path=tmp_path / "again.json",
     )
     first = json.loads(
         (results / "real_cls" / "far" / "seed1" / "round1" / "labeled.json").read_text()

@@ -76,16 +76,37 @@ def test_shared_round0_equals_training_and_scoring_in_place(tmp_path, method, m)
     data, labeled = _dataset(tmp_path)
     setup = {**SETUP, "method": method}
     own = train_round(
-        data, labeled, setup, ROUND0, _files(tmp_path, "own"), CPU, log=tmp_path / "own.log"
+        data,
+        labeled,
+        setup=setup,
+        which=ROUND0,
+        out=_files(tmp_path, "own"),
+        compute=CPU,
+        log=tmp_path / "own.log",
     )
     initial = ModelFiles(tmp_path / "init.pt", tmp_path / "fit.json", tmp_path / "init.npz")
-    fit = train_initial(data, labeled, SETUP, m, 1, initial, CPU, log=tmp_path / "init.log")
+    fit = train_initial(
+        data,
+        labeled,
+        setup=SETUP,
+        n_variants=m,
+        seed=1,
+        out=initial,
+        compute=CPU,
+        log=tmp_path / "init.log",
+    )
     assert fit["dataset"] == {
         "task": "classification", "n_samples": 30, "n_train": 24, "n_variants": 2,
         "synthetic_standin": False,
     }  # fmt: skip
     shared = train_round(
-        data, labeled, setup, ROUND0, _files(tmp_path, "shared"), CPU, initial=initial
+        data,
+        labeled,
+        setup=setup,
+        which=ROUND0,
+        out=_files(tmp_path, "shared"),
+        compute=CPU,
+        initial=initial,
     )
     timing = {"train_seconds", "score_seconds", "seconds"}
     assert {k: v for k, v in shared.items() if k not in timing} == {
@@ -108,11 +129,28 @@ def test_shared_round0_equals_training_and_scoring_in_place(tmp_path, method, m)
 def test_a_shared_fit_of_other_images_is_refused(tmp_path):
     data, labeled = _dataset(tmp_path)
     initial = ModelFiles(tmp_path / "init.pt", tmp_path / "fit.json", tmp_path / "init.npz")
-    train_initial(data, labeled, SETUP, 0, 1, initial, CPU, log=tmp_path / "init.log")
+    train_initial(
+        data,
+        labeled,
+        setup=SETUP,
+        n_variants=0,
+        seed=1,
+        out=initial,
+        compute=CPU,
+        log=tmp_path / "init.log",
+    )
     setup = {**SETUP, "method": {"strategy": "duis", "use_variants": True}}
     duis = RoundId("toy", "duis", 1, 0)
     with pytest.raises(ValueError, match="trained on 6 images, but round 0 of duis trains on 18"):
-        train_round(data, labeled, setup, duis, _files(tmp_path, "m"), CPU, initial=initial)
+        train_round(
+            data,
+            labeled,
+            setup=setup,
+            which=duis,
+            out=_files(tmp_path, "m"),
+            compute=CPU,
+            initial=initial,
+        )
 
 
 def test_a_last_round_writes_no_scores_and_its_query_is_refused(tmp_path):
@@ -121,33 +159,51 @@ def test_a_last_round_writes_no_scores_and_its_query_is_refused(tmp_path):
     data, labeled = _dataset(tmp_path)
     setup = {**SETUP, "method": {"strategy": "margin"}}
     files = _files(tmp_path, "last")
-    record = train_round(data, labeled, setup, ROUND0, files, CPU, score=False)
+    record = train_round(
+        data, labeled, setup=setup, which=ROUND0, out=files, compute=CPU, score=False
+    )
     assert record["score_seconds"] == 0.0 and (tmp_path / "last.pt").exists()
     scores = StrategyInputs.load(files.scores)
     assert scores.labeled_idx.tolist() == list(range(6)) and len(scores.unlabeled_idx) == 18
     assert all(getattr(scores, f) is None for f in ARRAY_FIELDS)
     with pytest.raises(ValueError, match="margin"):
-        query_round(files.scores, labeled, {"strategy": "margin"}, 2, 1, 1, tmp_path / "q.json")
+        query_round(
+            files.scores,
+            labeled,
+            method={"strategy": "margin"},
+            batch=2,
+            seed=1,
+            round_=1,
+            out_path=tmp_path / "q.json",
+        )
 
 
 def test_a_warm_start_fine_tunes_the_previous_rounds_weights_with_its_own_steps(tmp_path):
     data, labeled = _dataset(tmp_path)
     setup = {**SETUP, "method": {"strategy": "margin"}}
     first = _files(tmp_path, "r0")
-    train_round(data, labeled, setup, ROUND0, first, CPU, score=False)
+    train_round(data, labeled, setup=setup, which=ROUND0, out=first, compute=CPU, score=False)
     round1 = RoundId("toy", "own", 1, 1)
     # lr 0: a fine-tuning that cannot move the weights returns the previous round's
     warm = {**setup, "train": {**SETUP["train"], "warm_start": {"steps": 3, "lr": 0.0}}}
     record = train_round(
-        data, labeled, warm, round1, _files(tmp_path, "r1"), CPU, score=False,
-        previous_model=first.model,
+        data, labeled, setup=warm, which=round1, out=_files(tmp_path, "r1"), compute=CPU,
+        score=False, previous_model=first.model,
     )  # fmt: skip
     assert record["train_steps"] == 3  # the warm-start steps, not the fit's 2 epochs
     before, after = (torch.load(tmp_path / f"{r}.pt", weights_only=True) for r in ("r0", "r1"))
     float_keys = [k for k in before if before[k].is_floating_point() and "running" not in k]
     assert float_keys and all(torch.equal(before[k], after[k]) for k in float_keys)
     # without the previous weights the same round trains fresh ones with the fit's steps
-    cold = train_round(data, labeled, setup, round1, _files(tmp_path, "c1"), CPU, score=False)
+    cold = train_round(
+        data,
+        labeled,
+        setup=setup,
+        which=round1,
+        out=_files(tmp_path, "c1"),
+        compute=CPU,
+        score=False,
+    )
     assert cold["train_steps"] == 2
     fresh = torch.load(tmp_path / "c1.pt", weights_only=True)
     assert not all(torch.equal(before[k], fresh[k]) for k in float_keys)

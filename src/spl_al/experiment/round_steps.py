@@ -125,6 +125,7 @@ class Fit:
 def fit_and_evaluate(
     dataset,
     pool_idx,
+    *,
     given,
     train_setup: dict,
     n_variants,
@@ -132,7 +133,6 @@ def fit_and_evaluate(
     round_,
     compute: Compute,
     log,
-    *,
     warm_from=None,
 ) -> Fit:
     """Train a model on the labeled groups ``pool_idx`` (their labels or masks
@@ -233,6 +233,7 @@ def dataset_facts(dataset) -> dict:
 def train_initial(
     dataset_path,
     labeled_path,
+    *,
     setup: dict,
     n_variants: int,
     seed: int,
@@ -260,7 +261,17 @@ def train_initial(
     pool_idx = read_labeled(labeled_path)
     given = dataset.labels[dataset.train_idx[pool_idx]]
     m = int(n_variants)
-    fit = fit_and_evaluate(dataset, pool_idx, given, setup["train"], m, seed, 0, compute, log)
+    fit = fit_and_evaluate(
+        dataset,
+        pool_idx,
+        given=given,
+        train_setup=setup["train"],
+        n_variants=m,
+        seed=seed,
+        round_=0,
+        compute=compute,
+        log=log,
+    )
     save_model(fit.model, out.model)
     record = {
         "metrics": fit.metrics,
@@ -394,6 +405,7 @@ def _metrics_record(facts, setup, which: RoundId, n_labeled, metrics, extra) -> 
 def train_round(
     dataset_path,
     labeled_path,
+    *,
     setup: dict,
     which: RoundId,
     out: ModelFiles,
@@ -451,12 +463,27 @@ def train_round(
     compute.apply()
     dataset = Dataset.load(dataset_path, skip=SCENE_FIELDS)
     fit = _round_model(
-        dataset, pool_idx, setup, method, which, compute, log, labels_path, initial, previous_model
+        dataset,
+        pool_idx,
+        setup=setup,
+        method=method,
+        which=which,
+        compute=compute,
+        log=log,
+        labels_path=labels_path,
+        initial=initial,
+        previous_model=previous_model,
     )
     save_model(fit.model, out.model)
     if score:
         scored = score_pool(
-            fit.model, dataset, pool_idx, method, out.scores, compute, _precision(setup)
+            fit.model,
+            dataset,
+            labeled=pool_idx,
+            method=method,
+            out_path=out.scores,
+            compute=compute,
+            precision=_precision(setup),
         )
     else:
         unlabeled = np.setdiff1d(np.arange(len(dataset.train_idx)), pool_idx)
@@ -477,7 +504,7 @@ def train_round(
 
 
 def _round_model(
-    dataset, pool_idx, setup, method, which, compute, log, labels_path, initial, previous_model
+    dataset, pool_idx, *, setup, method, which, compute, log, labels_path, initial, previous_model
 ):
     """The round's model: round 0's shared fit loaded (``initial``), else one trained on
     the labels of ``pool_idx`` (the dataset's, or a person's from ``labels_path``),
@@ -496,13 +523,13 @@ def _round_model(
     return fit_and_evaluate(
         dataset,
         pool_idx,
-        given,
-        setup["train"],
-        m,
-        which.seed,
-        which.round,
-        compute,
-        log,
+        given=given,
+        train_setup=setup["train"],
+        n_variants=m,
+        seed=which.seed,
+        round_=which.round,
+        compute=compute,
+        log=log,
         warm_from=previous_model,
     )
 
@@ -510,6 +537,7 @@ def _round_model(
 def score_pool(
     model,
     dataset,
+    *,
     labeled: np.ndarray,
     method: MethodSpec,
     out_path,
@@ -538,6 +566,7 @@ def score_pool(
 def score_round(
     dataset_path,
     labeled_path,
+    *,
     model_path,
     setup: dict,
     method_name: str,
@@ -552,13 +581,20 @@ def score_round(
     method = MethodSpec(name=method_name, **{"params": {}, **setup["method"]})
     model = load_model(dataset, setup["train"]["model"], model_path)
     return score_pool(
-        model, dataset, read_labeled(labeled_path), method, out_path, compute, _precision(setup)
+        model,
+        dataset,
+        labeled=read_labeled(labeled_path),
+        method=method,
+        out_path=out_path,
+        compute=compute,
+        precision=_precision(setup),
     )
 
 
 def query_round(
     scores_path,
     labeled_path,
+    *,
     method: dict,
     batch: int,
     seed: int,
