@@ -308,15 +308,17 @@ def test_killed_run_resumes_to_identical_tables_and_labeled_sets(ci_results, tmp
 
 def test_cluster_mode_runs_group_jobs_and_agrees(ci_results, tmp_path):
     """The generic cluster executor with a local submit script: one submission per
-    round (train + the query it feeds), same numbers as the local run."""
+    round (train + the query it feeds), same numbers as the local run. Its jobs are
+    fresh processes, the local run's forked warm ones: street_pc's round 1 fine-tunes
+    PointNet++, whose own point sampling must follow the seed in both."""
     results = tmp_path / "results"
-    resume_from(ci_results, results, "street_seg", "data", "initial", "random/seed1/round0")
-    target = results / "street_seg" / "random" / "seed1" / "round1" / "metrics.json"
+    resume_from(ci_results, results, "street_pc", "data", "initial", "random/seed1/round0")
+    target = results / "street_pc" / "random" / "seed1" / "round1" / "metrics.json"
     run = snakemake(results, str(target), profile="profiles/local-cluster")
     out = run.stdout + run.stderr
     assert "Submitted group job" in out and "rule dataset" not in out
     ours = json.loads(target.read_text())
-    local = json.loads((ci_results / "street_seg/random/seed1/round1/metrics.json").read_text())
+    local = json.loads((ci_results / "street_pc/random/seed1/round1/metrics.json").read_text())
     assert ours["value"] == local["value"] and ours["n_labeled"] == local["n_labeled"]
 
 

@@ -245,6 +245,23 @@ def test_training_is_deterministic_for_a_seed():
         train(model, depth, valid, labels, {**fit, "crop_width": 0.5}, seed=0, device="cpu")
 
 
+def test_fine_tuning_samples_points_from_the_training_seed_not_the_global_rng():
+    """A fine-tuned PointNet++ (weights loaded, from_scratch off) trains the same
+    whatever the global RNG held when it was built (a warm job process inherits
+    another's): its point sampler is seeded from the training seed."""
+    grid = _grid()
+    depth, valid, labels = _toy_scenes(16, grid, seed=2)
+    start = build_model("segmentation", 2, "pointnet2", grid=grid, seed=0, **SMALL).state_dict()
+    fit = {**FIT, "epochs": 2, "log_every": 0, "from_scratch": False}
+    states = []
+    for global_seed in (1, 2):
+        torch.manual_seed(global_seed)  # the state a model is built in
+        model = build_model("segmentation", 2, "pointnet2", grid=grid, **SMALL)
+        model.load_state_dict(start)
+        states.append(train(model, depth, valid, labels, fit, seed=5, device="cpu").state_dict())
+    assert all(torch.equal(states[0][k], states[1][k]) for k in states[0])
+
+
 def test_range_input_keeps_metres_and_wrong_inputs_are_refused():
     depth = np.array([[[2.0, np.nan], [7.5, 3.0]]], dtype=np.float32)
     x = to_range_input(depth, np.array([[[True, True], [False, True]]]))

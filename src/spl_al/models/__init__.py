@@ -16,6 +16,8 @@ Public API:
 - ``training_outputs(model, x, target)``: the logits and targets a training step
   scores (every unit, or the model's own choice: PointNet++ its sampled points).
 - ``reset_parameters(model, seed)``: deterministic re-initialisation.
+- ``seed_own_draws(model, seed)``: the model's own training draws (PointNet++'s point
+  sampler) seeded, weights kept: what a fine-tuning does instead of re-initialising.
 - ``ARCHS``: the architectures per task (the first one is the task's default).
 """
 
@@ -100,6 +102,13 @@ def reset_parameters(model: nn.Module, seed: int) -> None:
     model.to(device)
 
 
+def seed_own_draws(model: nn.Module, seed: int) -> None:
+    """Seed the draws ``model`` makes itself in training (PointNet++'s point sampler)
+    from ``seed``, weights kept; models that draw nothing are left as they are."""
+    if hasattr(model, "seed_sampler"):
+        model.seed_sampler(seed)
+
+
 def build_model(
     task: str, n_classes: int, arch: str | None = None, seed: int | None = None, **arch_params
 ) -> nn.Module:
@@ -151,6 +160,7 @@ __all__ = [
     "model_input",
     "needs_grid",
     "reset_parameters",
+    "seed_own_draws",
     "to_input",
     "to_range_input",
     "training_outputs",

@@ -493,6 +493,15 @@ class PointNet2Seg(nn.Module):
             )
         super()._load_from_state_dict(state_dict, prefix, *args, **kwargs)
 
+    def seed_sampler(self, seed: int) -> None:
+        """Draw the point sampler's seed from ``seed``, weights untouched: a fine-tuning
+        (weights loaded, not re-initialised) samples its points from the training seed,
+        not from whatever state the global RNG had when the model was built."""
+        with torch.random.fork_rng(devices=[]):
+            torch.manual_seed(int(seed))
+            self._sample_seed = int(torch.randint(0, 2**62, (1,)).item())
+        self._generator = None
+
     def _sampler(self) -> torch.Generator | None:
         if not self.training:
             return None

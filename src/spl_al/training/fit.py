@@ -16,7 +16,7 @@ import torch.nn.functional as F
 from torch import nn
 
 from spl_al.labels import IGNORE_INDEX
-from spl_al.models import model_input, reset_parameters, training_outputs
+from spl_al.models import model_input, reset_parameters, seed_own_draws, training_outputs
 from spl_al.training.precision import LossScaler, autocast, resolve_precision
 from spl_al.training.recipe import TrainConfig, deterministic_algorithms, resolve_device
 from spl_al.training.sgd import SGD
@@ -303,6 +303,8 @@ def train(
     )
     if cfg.from_scratch:
         reset_parameters(model, seed)
+    else:  # fine-tuning: the weights stay, the model's own draws follow the seed
+        seed_own_draws(model, seed)
     model.to(dev)
     if cfg.channels_last:
         model.to(memory_format=torch.channels_last)
