@@ -144,11 +144,11 @@ def test_accept_writes_nothing_until_the_file_is_right(tmp_path):
         return accept_labels(
             tmp_path / "dataset.npz",
             request,
-            labels_file,
-            tmp_path / "to_label",
-            tmp_path / "before.npz",
-            out_json,
-            out_npz,
+            labels_file=labels_file,
+            batch_dir=tmp_path / "to_label",
+            previous_labels=tmp_path / "before.npz",
+            out_labeled=out_json,
+            out_labels=out_npz,
         )
 
     with pytest.raises(ValueError, match=f"waiting for labels: .* save it as {labels_file}"):

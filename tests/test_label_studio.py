@@ -295,11 +295,11 @@ def test_accept_reads_an_export_in_place_of_the_csv_and_writes_nothing_when_refu
         return accept_labels(
             tmp_path / "dataset.npz",
             request,
-            csv_file,
-            tmp_path / "to_label",
-            tmp_path / "before.npz",
-            out_json,
-            out_npz,
+            labels_file=csv_file,
+            batch_dir=tmp_path / "to_label",
+            previous_labels=tmp_path / "before.npz",
+            out_labeled=out_json,
+            out_labels=out_npz,
             export_file=json_file,
         )
 

@@ -99,13 +99,19 @@ def test_evaluate_grid_and_tables(observed, tmp_path):
         names = {"dataset": "d", "method": method, "seeds": [1, 2], "round": 1}
         out = tmp_path / f"{method}.json"
         models = [tmp_path / "model.pt"] * 2
-        recs = evaluate_grid(observed, [shard], models, {"arch": "smallcnn"}, names, out)
+        recs = evaluate_grid(
+            observed, [shard], model_paths=models, model_cfg={"arch": "smallcnn"},
+            names=names, out_path=out,
+        )  # fmt: skip
         assert [r["seed"] for r in recs] == [1, 2]
         assert all(len(r["cells"]) == 6 and all(0 <= c["value"] <= 1 for c in r["cells"])
                    for r in recs)  # fmt: skip
         evals.append(out)
     with pytest.raises(ValueError, match="got 1 models for 2 seeds"):
-        evaluate_grid(observed, [shard], models[:1], {"arch": "smallcnn"}, names, out)
+        evaluate_grid(
+            observed, [shard], model_paths=models[:1], model_cfg={"arch": "smallcnn"},
+            names=names, out_path=out,
+        )  # fmt: skip
     frame = robustness_frame(evals)
     trained = {"msppp": [2, 10], "sbr": [0.2, 5]}
     table = robustness_table(frame, trained)

@@ -13,6 +13,7 @@ from spl_al.experiment.jobs import LOCAL, Compute
 def model_card(
     model_path,
     dataset_path,
+    *,
     labeled_path,
     metrics_path,
     facts: dict,

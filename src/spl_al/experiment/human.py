@@ -73,6 +73,7 @@ def batch_probabilities(dataset, pool_indices, model_path, model_cfg: dict) -> n
 def label_batch(
     dataset_path,
     request_path,
+    *,
     labels_file,
     out_dir,
     export_file=None,
@@ -142,6 +143,7 @@ def given_label_file(labels_file, export_file, batch_dir, n_asked: int) -> Path:
 def accept_labels(
     dataset_path,
     request_path,
+    *,
     labels_file,
     batch_dir,
     previous_labels,

@@ -49,7 +49,7 @@ def make_table(
 
 
 def make_curves(
-    metrics_paths, methods, png, pdf, title: str, per_level: bool = False, families=None
+    metrics_paths, methods, *, png, pdf, title: str, per_level: bool = False, families=None
 ) -> None:
     """Budget curves with ±std bands: overall (one panel per family of the budget
     experiment when it has a matched family: ``families``, {"paper": [...],

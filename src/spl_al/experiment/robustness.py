@@ -184,6 +184,7 @@ def load_grid(shard_paths) -> dict:
 def evaluate_grid(
     observed_path,
     shard_paths,
+    *,
     model_paths,
     model_cfg: dict,
     names: dict,
