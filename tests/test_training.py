@@ -83,7 +83,14 @@ def test_segmentation_loss_ignores_invalid_pixels():
     cfg = TrainConfig(steps=3, batch_size=6, log_every=0)
     runs = [
         train(
-            build_model("segmentation", 3, width=4, depth=2), d, v, t, cfg, 0, "cpu", io.StringIO()
+            build_model("segmentation", 3, width=4, depth=2),
+            d,
+            v,
+            t,
+            cfg,
+            seed=0,
+            device="cpu",
+            log=io.StringIO(),
         )
         for t in (masks, scrambled)
     ]
@@ -216,11 +223,21 @@ def test_train_rejects_bad_targets():
     depth, valid, y = shapes_groups(4, n_groups=1)
     model = build_model("classification", 3, width=2)
     with pytest.raises(ValueError, match="targets"):
-        train(model, depth[:, 0], valid[:, 0], y + 3, FAST, 0, "cpu", io.StringIO())
+        train(model, depth[:, 0], valid[:, 0], y + 3, FAST, seed=0, device="cpu", log=io.StringIO())
     with pytest.raises(ValueError, match="targets"):
-        train(model, depth[:, 0], valid[:, 0], y[:3], FAST, 0, "cpu", io.StringIO())
+        train(model, depth[:, 0], valid[:, 0], y[:3], FAST, seed=0, device="cpu", log=io.StringIO())
     with pytest.raises(ValueError, match="groups must lie in"):
-        train(model, depth[:, 0], valid[:, 0], y, FAST, 0, "cpu", io.StringIO(), groups=5)
+        train(
+            model,
+            depth[:, 0],
+            valid[:, 0],
+            y,
+            FAST,
+            seed=0,
+            device="cpu",
+            log=io.StringIO(),
+            groups=5,
+        )
 
 
 def test_epochs_count_groups_by_default_and_images_when_asked():
@@ -253,8 +270,8 @@ def test_train_takes_the_steps_of_its_policy():
         cfg = TrainConfig(epochs=2, batch_size=2, steps_by=by, log_every=0)
         assert cfg.total_steps(12, 3) == steps
         log = io.StringIO()
-        train(build_model("classification", 3, width=2), depth[:, 0], valid[:, 0], y, cfg, 0,
-              "cpu", log, groups=3)  # fmt: skip
+        train(build_model("classification", 3, width=2), depth[:, 0], valid[:, 0], y, cfg, seed=0,
+              device="cpu", log=log, groups=3)  # fmt: skip
         assert f", {steps} steps (" in log.getvalue()
 
 
@@ -264,7 +281,7 @@ def test_steps_per_group_counts_the_labeled_groups_not_the_images():
     for groups, steps in [(2, 10), (None, 20)]:
         log = io.StringIO()
         model = build_model("classification", 3, width=2)
-        train(model, depth[:, 0], valid[:, 0], y, cfg, 0, "cpu", log, groups=groups)
+        train(model, depth[:, 0], valid[:, 0], y, cfg, seed=0, device="cpu", log=log, groups=groups)
         assert f", {steps} steps (" in log.getvalue()
 
 
@@ -350,7 +367,14 @@ def test_training_with_every_augmentation_is_deterministic_and_learns():
     )
     runs = [
         train(
-            build_model("classification", 3, width=8), d, v, y[:140], cfg, 0, "cpu", io.StringIO()
+            build_model("classification", 3, width=8),
+            d,
+            v,
+            y[:140],
+            cfg,
+            seed=0,
+            device="cpu",
+            log=io.StringIO(),
         )
         for _ in range(2)
     ]

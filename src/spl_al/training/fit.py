@@ -254,6 +254,7 @@ def train(
     valid,
     targets,
     cfg: TrainConfig | dict | None = None,
+    *,
     seed: int = 0,
     device: str | torch.device | None = None,
     log: str | os.PathLike | TextIO | None = None,

@@ -102,6 +102,7 @@ def evaluate(
     depth_m,
     valid,
     targets,
+    *,
     levels: Sequence[str] | None = None,
     classes: Sequence[str] | None = None,
     device: str | torch.device | None = None,
