@@ -82,7 +82,9 @@ def _one_al_round(depth, valid, oracle, labeled, seed):
     params = {"duis": {"n_cand": 8}, "diversity": {"n_cand": 8}, "skactiveml": {"cls": "TypiClust"}}
     built = {n: strategies.get(n, **params.get(n, {})) for n in strategies.names()}
     needs = set().union(*(s.needs for s in built.values()))
-    inputs = compute_inputs(model, needs, depth, valid, pool.unlabeled_idx, pool.labeled_idx, "cpu")
+    inputs = compute_inputs(
+        model, needs, depth, valid, pool.unlabeled_idx, pool.labeled_idx, device="cpu"
+    )
     return {
         name: s.select(inputs, 5, np.random.default_rng(seed)).tolist() for name, s in built.items()
     }

@@ -54,7 +54,7 @@ def test_only_the_needed_parts_are_computed(cls_setup, name):
     model, depth, valid, unl, lab = cls_setup
     needs = strategies.get(name, **PARAMS.get(name, {})).needs
     counting = CountingModel(model)
-    inputs = compute_inputs(counting, needs, depth, valid, unl, lab, "cpu")
+    inputs = compute_inputs(counting, needs, depth, valid, unl, lab, device="cpu")
     present = {f for f in ALL_FIELDS if getattr(inputs, f) is not None}
     expected = {f for n in needs for f in NEEDS[n]} - {"grad_embedding"}  # classification: q, h
     assert present == expected
@@ -66,7 +66,7 @@ def test_only_the_needed_parts_are_computed(cls_setup, name):
 
 def test_classification_inputs_match_predict(cls_setup):
     model, depth, valid, unl, lab = cls_setup
-    inputs = compute_inputs(model, NEEDS, depth, valid, unl, lab, "cpu", batch_size=7)
+    inputs = compute_inputs(model, NEEDS, depth, valid, unl, lab, device="cpu", batch_size=7)
     n, g = len(unl), depth.shape[1]
     pred = predict(model, depth[unl].reshape(n * g, 12, 12), valid[unl].reshape(n * g, 12, 12))
     probs = pred.probs.reshape(n, g, 1, -1)
@@ -89,7 +89,7 @@ def test_segmentation_inputs_are_per_group_and_average_observed_valid_pixels():
     depth, valid, _ = street_groups(9, n_groups=2, shape=(10, 14))
     model = build_model("segmentation", 3, width=4, depth=2, seed=0)
     unl, lab = np.array([0, 2, 3, 5, 8]), np.array([1, 4])
-    inputs = compute_inputs(model, NEEDS, depth, valid, unl, lab, "cpu", batch_size=3)
+    inputs = compute_inputs(model, NEEDS, depth, valid, unl, lab, device="cpu", batch_size=3)
     n, hw = len(unl), 10 * 14
     pred = predict(
         model,

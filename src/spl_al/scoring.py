@@ -79,6 +79,7 @@ def compute_inputs(
     valid,
     unlabeled_idx,
     labeled_idx,
+    *,
     device: str | torch.device | None = None,
     batch_size: int | None = None,
     precision: str = "fp32",

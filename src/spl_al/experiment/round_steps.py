@@ -303,7 +303,14 @@ def _score_every_need(model, dataset, pool_idx, m, out_path, compute, precision)
     for m_scored, needs in passes:
         depth, valid = dataset.groups(dataset.train_idx, n_variants=m_scored)
         inputs = compute_inputs(
-            model, needs, depth, valid, unlabeled, pool_idx, compute.device, precision=precision
+            model,
+            needs,
+            depth,
+            valid,
+            unlabeled,
+            pool_idx,
+            device=compute.device,
+            precision=precision,
         )
         parts.update(
             {f: getattr(inputs, f) for f in ARRAY_FIELDS if getattr(inputs, f) is not None}
@@ -557,7 +564,14 @@ def score_pool(
     m = _score_variants(method, strategy.needs, dataset.n_variants)
     depth, valid = dataset.groups(dataset.train_idx, n_variants=m)
     inputs = compute_inputs(
-        model, strategy.needs, depth, valid, unlabeled, labeled, compute.device, precision=precision
+        model,
+        strategy.needs,
+        depth,
+        valid,
+        unlabeled,
+        labeled,
+        device=compute.device,
+        precision=precision,
     )
     inputs.save(out_path)
     return {"unlabeled": int(unlabeled.size), "seconds": round(time.perf_counter() - started, 3)}
