@@ -354,7 +354,9 @@ def _check_candidate_pools(config: dict, dataset: str, runs: dict, specs: dict) 
         key = "the 'sweeps.n_cand' values" if swept and not overridden else None
         for r in range(1, rounds):
             n_unlabeled = n_train - labeled_at(entry["al"], r - 1)
-            message = n_cand_error(n_cand, n_unlabeled, r, dataset, method, key=key)
+            message = n_cand_error(
+                n_cand, n_unlabeled, round_=r, dataset=dataset, method=method, key=key
+            )
             if message:
                 raise ValueError(message)
 

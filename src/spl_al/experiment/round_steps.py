@@ -646,10 +646,10 @@ def query_round(
         message = n_cand_error(
             err.n_cand,
             err.n_unlabeled,
-            round_,
-            dataset,
-            method_name,
-            seed,
+            round_=round_,
+            dataset=dataset,
+            method=method_name,
+            seed=seed,
             fraction=strategy.max_cand_fraction,
         )
         raise CandidatePoolTooLarge(message, err.n_cand, err.n_unlabeled) from None

@@ -43,6 +43,7 @@ def write_batch(
     pool_indices,
     out_dir,
     labels_file,
+    *,
     mask_dir=None,
     export_file=None,
     probs=None,

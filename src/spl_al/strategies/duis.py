@@ -41,6 +41,7 @@ class CandidatePoolTooLarge(ValueError):
 def n_cand_error(
     n_cand: int,
     n_unlabeled: int,
+    *,
     round_: int | None = None,
     dataset: str | None = None,
     method: str | None = None,
