@@ -52,7 +52,14 @@ class Mesh:
 
 
 def loft(
-    rings, albedo: float, label: int = 0, cap_start=True, cap_end=True, closed=False, smooth=True
+    rings,
+    albedo: float,
+    label: int = 0,
+    *,
+    cap_start=True,
+    cap_end=True,
+    closed=False,
+    smooth=True,
 ) -> Mesh:
     """Surface through a sequence of closed polygons (rings).
 
@@ -158,6 +165,7 @@ def tube(
     albedo: float,
     label: int = 0,
     n_sides: int = 8,
+    *,
     up=None,
     closed=False,
     ellipse=1.0,
@@ -183,7 +191,7 @@ def tube(
 
 
 def cylinder_between(
-    p0, p1, radius, albedo: float, label: int = 0, n_sides: int = 8, radius_end=None
+    p0, p1, radius, albedo: float, *, label: int = 0, n_sides: int = 8, radius_end=None
 ) -> Mesh:
     """Capped (truncated-cone) tube from point p0 to p1."""
     r1 = radius if radius_end is None else radius_end
