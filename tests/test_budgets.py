@@ -149,33 +149,29 @@ def _scores(tmp_path, n_train=40, labeled=6):
     return tmp_path / "scores.npz", tmp_path / "labeled.json"
 
 
-def test_the_query_records_n_cand_and_the_pool_it_drew_from(tmp_path):
-    scores, labeled = _scores(tmp_path)
-    method = {"strategy": "duis", "params": {"n_cand": 17}}
-    record = query_round(
+def _query(scores, labeled, method, out_path, seed=1, round_=1, **names):
+    """``query_round`` of a batch of 6 (``names``: the dataset and method it reports)."""
+    return query_round(
         scores,
         labeled,
         method=method,
         batch=6,
-        seed=1,
-        round_=1,
-        out_path=tmp_path / "q.json",
-        dataset="toy",
-        method_name="duis",
+        seed=seed,
+        round_=round_,
+        out_path=out_path,
+        **names,
     )
+
+
+def test_the_query_records_n_cand_and_the_pool_it_drew_from(tmp_path):
+    scores, labeled = _scores(tmp_path)
+    method = {"strategy": "duis", "params": {"n_cand": 17}}
+    record = _query(scores, labeled, method, tmp_path / "q.json", dataset="toy", method_name="duis")
     saved = json.loads((tmp_path / "q.json").read_text())
     assert saved == record
     assert (saved["n_cand"], saved["n_unlabeled"], saved["batch"]) == (17, 34, 6)
     assert saved["cand_ratio"] == pytest.approx(0.5)
-    plain = query_round(
-        scores,
-        labeled,
-        method={"strategy": "random"},
-        batch=6,
-        seed=1,
-        round_=1,
-        out_path=tmp_path / "m.json",
-    )
+    plain = _query(scores, labeled, {"strategy": "random"}, tmp_path / "m.json")
     assert (plain["n_cand"], plain["n_unlabeled"], plain["cand_ratio"]) == (None, 34, None)
 
 
@@ -183,17 +179,10 @@ def test_the_query_refuses_n_cand_above_half_naming_the_round(tmp_path):
     scores, labeled = _scores(tmp_path)
     method = {"strategy": "diversity", "params": {"n_cand": 18}}
     with pytest.raises(CandidatePoolTooLarge) as err:
-        query_round(
-            scores,
-            labeled,
-            method=method,
-            batch=6,
-            seed=2,
-            round_=3,
-            out_path=tmp_path / "q.json",
-            dataset="toy",
+        _query(
+            scores, labeled, method, tmp_path / "q.json", seed=2, round_=3, dataset="toy",
             method_name="syn_div",
-        )
+        )  # fmt: skip
     assert str(err.value) == (
         "toy/syn_div seed 2: the query that makes round 3 draws a k-means candidate pool of "
         "N_cand = 18 from 34 unlabeled groups (53%, more than half of them: no longer a "

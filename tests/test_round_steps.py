@@ -37,6 +37,18 @@ def _files(folder, stem):
     return ModelFiles(folder / f"{stem}.pt", folder / f"{stem}.json", folder / f"{stem}.npz")
 
 
+def _train(data, labeled, setup, which, out, **options):
+    """``train_round`` on the CPU; the module's calls differ in these and ``options``."""
+    return train_round(data, labeled, setup=setup, which=which, out=out, compute=CPU, **options)
+
+
+def _initial(data, labeled, n_variants, out, log):
+    """``train_initial`` of ``SETUP``, seed 1, on the CPU."""
+    return train_initial(
+        data, labeled, setup=SETUP, n_variants=n_variants, seed=1, out=out, compute=CPU, log=log
+    )
+
+
 def _dataset(tmp_path):
     depth, _, labels = shapes_groups(30, n_groups=3, seed=1)
     n = len(labels)
@@ -75,39 +87,14 @@ def _dataset(tmp_path):
 def test_shared_round0_equals_training_and_scoring_in_place(tmp_path, method, m):
     data, labeled = _dataset(tmp_path)
     setup = {**SETUP, "method": method}
-    own = train_round(
-        data,
-        labeled,
-        setup=setup,
-        which=ROUND0,
-        out=_files(tmp_path, "own"),
-        compute=CPU,
-        log=tmp_path / "own.log",
-    )
+    own = _train(data, labeled, setup, ROUND0, _files(tmp_path, "own"), log=tmp_path / "own.log")
     initial = ModelFiles(tmp_path / "init.pt", tmp_path / "fit.json", tmp_path / "init.npz")
-    fit = train_initial(
-        data,
-        labeled,
-        setup=SETUP,
-        n_variants=m,
-        seed=1,
-        out=initial,
-        compute=CPU,
-        log=tmp_path / "init.log",
-    )
+    fit = _initial(data, labeled, m, initial, tmp_path / "init.log")
     assert fit["dataset"] == {
         "task": "classification", "n_samples": 30, "n_train": 24, "n_variants": 2,
         "synthetic_standin": False,
     }  # fmt: skip
-    shared = train_round(
-        data,
-        labeled,
-        setup=setup,
-        which=ROUND0,
-        out=_files(tmp_path, "shared"),
-        compute=CPU,
-        initial=initial,
-    )
+    shared = _train(data, labeled, setup, ROUND0, _files(tmp_path, "shared"), initial=initial)
     timing = {"train_seconds", "score_seconds", "seconds"}
     assert {k: v for k, v in shared.items() if k not in timing} == {
         k: v for k, v in own.items() if k not in timing
@@ -129,28 +116,11 @@ def test_shared_round0_equals_training_and_scoring_in_place(tmp_path, method, m)
 def test_a_shared_fit_of_other_images_is_refused(tmp_path):
     data, labeled = _dataset(tmp_path)
     initial = ModelFiles(tmp_path / "init.pt", tmp_path / "fit.json", tmp_path / "init.npz")
-    train_initial(
-        data,
-        labeled,
-        setup=SETUP,
-        n_variants=0,
-        seed=1,
-        out=initial,
-        compute=CPU,
-        log=tmp_path / "init.log",
-    )
+    _initial(data, labeled, 0, initial, tmp_path / "init.log")
     setup = {**SETUP, "method": {"strategy": "duis", "use_variants": True}}
     duis = RoundId("toy", "duis", 1, 0)
     with pytest.raises(ValueError, match="trained on 6 images, but round 0 of duis trains on 18"):
-        train_round(
-            data,
-            labeled,
-            setup=setup,
-            which=duis,
-            out=_files(tmp_path, "m"),
-            compute=CPU,
-            initial=initial,
-        )
+        _train(data, labeled, setup, duis, _files(tmp_path, "m"), initial=initial)
 
 
 def test_a_last_round_writes_no_scores_and_its_query_is_refused(tmp_path):
@@ -159,9 +129,7 @@ def test_a_last_round_writes_no_scores_and_its_query_is_refused(tmp_path):
     data, labeled = _dataset(tmp_path)
     setup = {**SETUP, "method": {"strategy": "margin"}}
     files = _files(tmp_path, "last")
-    record = train_round(
-        data, labeled, setup=setup, which=ROUND0, out=files, compute=CPU, score=False
-    )
+    record = _train(data, labeled, setup, ROUND0, files, score=False)
     assert record["score_seconds"] == 0.0 and (tmp_path / "last.pt").exists()
     scores = StrategyInputs.load(files.scores)
     assert scores.labeled_idx.tolist() == list(range(6)) and len(scores.unlabeled_idx) == 18
@@ -182,28 +150,19 @@ def test_a_warm_start_fine_tunes_the_previous_rounds_weights_with_its_own_steps(
     data, labeled = _dataset(tmp_path)
     setup = {**SETUP, "method": {"strategy": "margin"}}
     first = _files(tmp_path, "r0")
-    train_round(data, labeled, setup=setup, which=ROUND0, out=first, compute=CPU, score=False)
+    _train(data, labeled, setup, ROUND0, first, score=False)
     round1 = RoundId("toy", "own", 1, 1)
     # lr 0: a fine-tuning that cannot move the weights returns the previous round's
     warm = {**setup, "train": {**SETUP["train"], "warm_start": {"steps": 3, "lr": 0.0}}}
-    record = train_round(
-        data, labeled, setup=warm, which=round1, out=_files(tmp_path, "r1"), compute=CPU,
-        score=False, previous_model=first.model,
-    )  # fmt: skip
+    record = _train(
+        data, labeled, warm, round1, _files(tmp_path, "r1"), score=False, previous_model=first.model
+    )
     assert record["train_steps"] == 3  # the warm-start steps, not the fit's 2 epochs
     before, after = (torch.load(tmp_path / f"{r}.pt", weights_only=True) for r in ("r0", "r1"))
     float_keys = [k for k in before if before[k].is_floating_point() and "running" not in k]
     assert float_keys and all(torch.equal(before[k], after[k]) for k in float_keys)
     # without the previous weights the same round trains fresh ones with the fit's steps
-    cold = train_round(
-        data,
-        labeled,
-        setup=setup,
-        which=round1,
-        out=_files(tmp_path, "c1"),
-        compute=CPU,
-        score=False,
-    )
+    cold = _train(data, labeled, setup, round1, _files(tmp_path, "c1"), score=False)
     assert cold["train_steps"] == 2
     fresh = torch.load(tmp_path / "c1.pt", weights_only=True)
     assert not all(torch.equal(before[k], fresh[k]) for k in float_keys)
