@@ -478,6 +478,10 @@ class PointNet2Seg(nn.Module):
         self.head.reset_parameters()
         if self.input_norm is not None:
             self.input_norm.reset_running_stats()
+        self._draw_sample_seed()
+
+    def _draw_sample_seed(self) -> None:
+        """The point sampler's seed, from the global RNG (the caller has seeded it)."""
         self._sample_seed = int(torch.randint(0, 2**62, (1,)).item())
         self._generator = None
 
@@ -499,8 +503,7 @@ class PointNet2Seg(nn.Module):
         not from whatever state the global RNG had when the model was built."""
         with torch.random.fork_rng(devices=[]):
             torch.manual_seed(int(seed))
-            self._sample_seed = int(torch.randint(0, 2**62, (1,)).item())
-        self._generator = None
+            self._draw_sample_seed()
 
     def _sampler(self) -> torch.Generator | None:
         if not self.training:
