@@ -11,7 +11,7 @@ from pathlib import Path
 
 import numpy as np
 
-from spl_al.photon import PhotonEvents, SensorParams, simulate_photons
+from spl_al.photon import Condition, PhotonEvents, PhotonScene, SensorParams, simulate_photons
 from spl_al.photon.formats.writers import (  # noqa: F401 - the tests import them from here
     timestamp_cells,
     write_cube_h5,
@@ -31,7 +31,7 @@ def simulate_capture(depth_m, msppp, sbr, sensor: SensorParams, seed=0, sky=None
     rng = np.random.default_rng(seed)
     depth = np.asarray(depth_m, dtype=np.float64)
     sky = np.zeros(depth.shape, bool) if sky is None else sky
-    ev = simulate_photons(depth, None, ~sky, msppp, sbr, sensor, rng)
+    ev = simulate_photons(PhotonScene(depth, valid=~sky), Condition(msppp, sbr, sensor), rng)
     sky_pix = np.flatnonzero(sky)
     n = rng.poisson(msppp / sbr, size=sky_pix.size)
     pix = np.repeat(sky_pix, n).astype(np.int32)

@@ -6,7 +6,14 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from spl_al.photon import ObservationModel, SensorParams, observe_photons, reconstruct
+from spl_al.photon import (
+    Condition,
+    ObservationModel,
+    PhotonScene,
+    SensorParams,
+    observe_photons,
+    reconstruct,
+)
 
 SENSOR = SensorParams.tabletop()
 OFF = ObservationModel.algorithm1()
@@ -25,7 +32,12 @@ def _counts(events, shape, signal=None):
 
 def test_algorithm1_model_has_its_rates_and_no_photon_off_the_returns():
     depth, valid = _scene()
-    ev = observe_photons(depth, None, valid, 5.0, 1.0, SENSOR, np.random.default_rng(0), OFF)
+    ev = observe_photons(
+        PhotonScene(depth, valid=valid),
+        Condition(5.0, 1.0, SENSOR),
+        np.random.default_rng(0),
+        model=OFF,
+    )
     sig, bkg = _counts(ev, depth.shape, True), _counts(ev, depth.shape, False)
     assert sig[:, 16:].sum() == 0 and bkg[:, 16:].sum() == 0
     assert sig[valid].mean() == pytest.approx(5.0, rel=0.05)
@@ -36,7 +48,12 @@ def test_algorithm1_model_has_its_rates_and_no_photon_off_the_returns():
 def test_background_falls_on_every_pixel():
     depth, valid = _scene()
     model = ObservationModel(gain_sigma=0.0, mixed_fraction=0.0)
-    ev = observe_photons(depth, None, valid, 4.0, 0.5, SENSOR, np.random.default_rng(1), model)
+    ev = observe_photons(
+        PhotonScene(depth, valid=valid),
+        Condition(4.0, 0.5, SENSOR),
+        np.random.default_rng(1),
+        model=model,
+    )
     bkg = _counts(ev, depth.shape, False)
     # rate mean(msppp A) / sbr = 8 on returning and non-returning pixels alike
     assert bkg[:, 16:].mean() == pytest.approx(8.0, rel=0.05)
@@ -48,9 +65,14 @@ def test_gain_is_unit_mean_and_spreads_counts():
     depth = np.full((64, 64), 10.0)
     valid = np.ones_like(depth, bool)
     rng = np.random.default_rng(2)
-    flat = observe_photons(depth, None, valid, 20.0, np.inf, SENSOR, rng, OFF)
+    flat = observe_photons(
+        PhotonScene(depth, valid=valid), Condition(20.0, np.inf, SENSOR), rng, model=OFF
+    )
     gained = observe_photons(
-        depth, None, valid, 20.0, np.inf, SENSOR, rng, ObservationModel(gain_sigma=0.4)
+        PhotonScene(depth, valid=valid),
+        Condition(20.0, np.inf, SENSOR),
+        rng,
+        model=ObservationModel(gain_sigma=0.4),
     )
     a, b = _counts(flat, depth.shape), _counts(gained, depth.shape)
     assert b.mean() == pytest.approx(a.mean(), rel=0.03)
@@ -63,11 +85,23 @@ def test_range_falloff_only_for_range_compensated_reflectance():
     valid = np.ones_like(depth, bool)
     model = ObservationModel(background_everywhere=False, gain_sigma=0.0, mixed_fraction=0.0)
     rng = np.random.default_rng(3)
-    ev = observe_photons(depth, None, valid, 5.0, np.inf, SENSOR, rng, model, True)
+    ev = observe_photons(
+        PhotonScene(depth, valid=valid),
+        Condition(5.0, np.inf, SENSOR),
+        rng,
+        model=model,
+        range_compensated=True,
+    )
     sig = _counts(ev, depth.shape, True)
     assert sig[:, :16].mean() / sig[:, 16:].mean() == pytest.approx(4.0, rel=0.1)
     assert sig.mean() == pytest.approx(5.0, rel=0.05), "msppp keeps its meaning"
-    plain = observe_photons(depth, None, valid, 5.0, np.inf, SENSOR, rng, model, False)
+    plain = observe_photons(
+        PhotonScene(depth, valid=valid),
+        Condition(5.0, np.inf, SENSOR),
+        rng,
+        model=model,
+        range_compensated=False,
+    )
     sig = _counts(plain, depth.shape, True)
     assert sig[:, :16].mean() / sig[:, 16:].mean() == pytest.approx(1.0, rel=0.1)
 
@@ -77,7 +111,12 @@ def test_mixed_pixels_return_photons_of_both_surfaces_at_an_edge():
     depth[:, 16:] = 12.0
     valid = np.ones_like(depth, bool)
     model = ObservationModel(background_everywhere=False, gain_sigma=0.0, mixed_fraction=0.4)
-    ev = observe_photons(depth, None, valid, 50.0, np.inf, SENSOR, np.random.default_rng(4), model)
+    ev = observe_photons(
+        PhotonScene(depth, valid=valid),
+        Condition(50.0, np.inf, SENSOR),
+        np.random.default_rng(4),
+        model=model,
+    )
     near_bin, far_bin = SENSOR.depth_to_bin(10.0), SENSOR.depth_to_bin(12.0)
     col = ev.pixel % 32
     edge_far = (col == 16) & (np.abs(ev.bin - near_bin) < 4 * SENSOR.sigma_bins)
@@ -93,16 +132,17 @@ def test_dead_time_drops_photons_close_after_another_in_the_same_cycle():
     valid = np.ones_like(depth, bool)
     base = dict(background_everywhere=False, gain_sigma=0.0, mixed_fraction=0.0)
     rng = np.random.default_rng(5)
-    free = observe_photons(depth, None, valid, 200.0, np.inf, SENSOR, rng, ObservationModel(**base))
-    piled = observe_photons(
-        depth,
-        None,
-        valid,
-        200.0,
-        np.inf,
-        SENSOR,
+    free = observe_photons(
+        PhotonScene(depth, valid=valid),
+        Condition(200.0, np.inf, SENSOR),
         rng,
-        ObservationModel(**base, dead_time_bins=50, cycles=20),
+        model=ObservationModel(**base),
+    )
+    piled = observe_photons(
+        PhotonScene(depth, valid=valid),
+        Condition(200.0, np.inf, SENSOR),
+        rng,
+        model=ObservationModel(**base, dead_time_bins=50, cycles=20),
     )
     assert len(piled) < 0.5 * len(free), "10 photons per cycle in one peak: most are lost"
     assert ObservationModel().dead_time_bins == 0, "off by default"
@@ -111,7 +151,12 @@ def test_dead_time_drops_photons_close_after_another_in_the_same_cycle():
 def test_censoring_voids_what_only_background_reached():
     depth, valid = _scene(32, 32)
     model = ObservationModel(gain_sigma=0.0, mixed_fraction=0.0)
-    ev = observe_photons(depth, None, valid, 5.0, 0.5, SENSOR, np.random.default_rng(6), model)
+    ev = observe_photons(
+        PhotonScene(depth, valid=valid),
+        Condition(5.0, 0.5, SENSOR),
+        np.random.default_rng(6),
+        model=model,
+    )
     loose = reconstruct(ev, depth.shape, SENSOR)
     strict = reconstruct(ev, depth.shape, SENSOR, censor=True)
     assert loose.valid[:, 18:].mean() > 0.9, "background alone gives random depths"

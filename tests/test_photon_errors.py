@@ -6,6 +6,8 @@ import numpy as np
 import pytest
 
 from spl_al.photon import (
+    Condition,
+    PhotonScene,
     SensorParams,
     histogram,
     load_mat,
@@ -20,7 +22,9 @@ RNG = np.random.default_rng(0)
 
 def simulate(depth=None, reflectance=None, valid=None, msppp=5.0, sbr=1.0, sensor=SENSOR):
     depth = np.full((8, 8), 3.0) if depth is None else depth
-    return simulate_photons(depth, reflectance, valid, msppp, sbr, sensor, RNG)
+    return simulate_photons(
+        PhotonScene(depth, reflectance=reflectance, valid=valid), Condition(msppp, sbr, sensor), RNG
+    )
 
 
 @pytest.mark.parametrize(
@@ -64,7 +68,7 @@ def test_nan_on_invalid_pixels_is_fine():
 
 def test_synthesize_variant_checks_like_simulate():
     with pytest.raises(ValueError, match="msppp must be"):
-        synthesize_variant(np.full((8, 8), 3.0), None, None, 0.0, 1.0, SENSOR, RNG)
+        synthesize_variant(PhotonScene(np.full((8, 8), 3.0)), Condition(0.0, 1.0, SENSOR), RNG)
 
 
 @pytest.mark.parametrize(

@@ -6,7 +6,15 @@ import numpy as np
 import pytest
 
 from spl_al.data.observe import DEFAULT_LEVELS, condition_set
-from spl_al.photon import PhotonEvents, SensorParams, load_mat, reconstruct, simulate_photons
+from spl_al.photon import (
+    Condition,
+    PhotonEvents,
+    PhotonScene,
+    SensorParams,
+    load_mat,
+    reconstruct,
+    simulate_photons,
+)
 from spl_al.photon.estimate import (
     FrameConditions,
     PulseEstimate,
@@ -37,7 +45,11 @@ def reflectance(shape, seed=7):
 def capture(msppp, sbr, sensor, seed, shape=(64, 64), valid=None):
     depth = street_scene(*shape, reach_m=sensor.max_depth_m)
     rng = np.random.default_rng(seed)
-    return simulate_photons(depth, reflectance(shape), valid, msppp, sbr, sensor, rng)
+    return simulate_photons(
+        PhotonScene(depth, reflectance=reflectance(shape), valid=valid),
+        Condition(msppp, sbr, sensor),
+        rng,
+    )
 
 
 def sensor_of(sigma_bins, n_bins, bin_width_s=80e-12):
@@ -145,7 +157,9 @@ def test_conditions_when_returns_span_most_of_the_gate(msppp, sbr):
     sensor = SensorParams.tabletop()
     depth = ground_plane(reach_m=sensor.max_depth_m)
     rng = np.random.default_rng(21)
-    events = simulate_photons(depth, reflectance(depth.shape), None, msppp, sbr, sensor, rng)
+    events = simulate_photons(
+        PhotonScene(depth, reflectance=reflectance(depth.shape)), Condition(msppp, sbr, sensor), rng
+    )
     est = estimate_conditions(events, sensor.n_bins)
     assert est.msppp == pytest.approx(msppp, rel=0.15)
     assert est.sbr == pytest.approx(sbr, rel=0.15)

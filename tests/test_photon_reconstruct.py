@@ -7,6 +7,8 @@ import pytest
 
 from spl_al.photon import (
     ML_METHODS,
+    Condition,
+    PhotonScene,
     SensorParams,
     load_mat,
     reconstruct,
@@ -25,7 +27,9 @@ def error_bins(depth, rec, sensor=SENSOR):
 @pytest.mark.parametrize("method", ML_METHODS)
 def test_noise_free_reconstruction_is_within_half_a_bin(scene, method):
     sensor = SensorParams(bin_width_s=80e-12, pulse_sigma_s=0.0, n_bins=1024)
-    ev = simulate_photons(scene, None, None, 50.0, np.inf, sensor, np.random.default_rng(0))
+    ev = simulate_photons(
+        PhotonScene(scene), Condition(50.0, np.inf, sensor), np.random.default_rng(0)
+    )
     rec = reconstruct(ev, scene.shape, sensor, method=method)
     assert rec.valid.all()
     assert np.max(np.abs(rec.depth_m - scene)) <= 0.5 * sensor.bin_depth_m + 1e-12
@@ -34,7 +38,9 @@ def test_noise_free_reconstruction_is_within_half_a_bin(scene, method):
 @pytest.mark.parametrize("method", ML_METHODS)
 def test_error_falls_as_photons_and_sbr_rise(scene, method):
     def median_and_outliers(msppp, sbr, seed):
-        ev = simulate_photons(scene, None, None, msppp, sbr, SENSOR, np.random.default_rng(seed))
+        ev = simulate_photons(
+            PhotonScene(scene), Condition(msppp, sbr, SENSOR), np.random.default_rng(seed)
+        )
         err = error_bins(scene, reconstruct(ev, scene.shape, SENSOR, method=method))
         return np.nanmedian(err), np.nanmean(err > 10)
 
@@ -45,7 +51,7 @@ def test_error_falls_as_photons_and_sbr_rise(scene, method):
 
 
 def test_pooled_beats_per_pixel_ml_at_low_sbr(scene):
-    ev = simulate_photons(scene, None, None, 2.0, 0.2, SENSOR, np.random.default_rng(3))
+    ev = simulate_photons(PhotonScene(scene), Condition(2.0, 0.2, SENSOR), np.random.default_rng(3))
     out_lmf = np.nanmean(error_bins(scene, reconstruct(ev, scene.shape, SENSOR, "lmf")) > 10)
     out_pooled = np.nanmean(error_bins(scene, reconstruct(ev, scene.shape, SENSOR, "pooled")) > 10)
     assert out_pooled < 0.5 * out_lmf
@@ -55,7 +61,9 @@ def test_high_sbr_error_shrinks_as_one_over_sqrt_n():
     """With n signal photons, the ML depth has std sqrt(sigma^2 + 1/12) / sqrt(n) bins."""
     sensor = SensorParams(bin_width_s=80e-12, pulse_sigma_s=2 * 80e-12, n_bins=1024)
     depth = np.full((128, 128), 5.0)
-    ev = simulate_photons(depth, None, None, 5.0, 100.0, sensor, np.random.default_rng(4))
+    ev = simulate_photons(
+        PhotonScene(depth), Condition(5.0, 100.0, sensor), np.random.default_rng(4)
+    )
     rec = reconstruct(ev, depth.shape, sensor, method="lmf")
     n_signal = np.bincount(ev.pixel[ev.is_signal], minlength=depth.size).reshape(depth.shape)
     residual = rec.depth_m / sensor.bin_depth_m - sensor.depth_to_bin(5.0)
@@ -70,7 +78,9 @@ def test_high_sbr_error_shrinks_as_one_over_sqrt_n():
 def test_reflectivity_and_background_estimates(scene, method):
     refl = np.ones(scene.shape)
     refl[:, 32:] = 3.0
-    ev = simulate_photons(scene, refl, None, 8.0, 1.0, SENSOR, np.random.default_rng(5))
+    ev = simulate_photons(
+        PhotonScene(scene, reflectance=refl), Condition(8.0, 1.0, SENSOR), np.random.default_rng(5)
+    )
     rec = reconstruct(ev, scene.shape, SENSOR, method=method)
     interior = np.zeros(scene.shape, bool)
     interior[:, 4:28] = True
@@ -81,7 +91,9 @@ def test_reflectivity_and_background_estimates(scene, method):
 
 
 def test_pixels_without_photons_are_voids(scene):
-    ev = simulate_photons(scene, None, None, 0.5, 10.0, SENSOR, np.random.default_rng(6))
+    ev = simulate_photons(
+        PhotonScene(scene), Condition(0.5, 10.0, SENSOR), np.random.default_rng(6)
+    )
     rec = reconstruct(ev, scene.shape, SENSOR)
     np.testing.assert_array_equal(rec.valid, rec.counts > 0)
     assert np.isnan(rec.depth_m[~rec.valid]).all()
@@ -90,8 +102,12 @@ def test_pixels_without_photons_are_voids(scene):
 
 
 def test_synthesize_variant_is_seeded_and_keeps_the_image_shape(scene):
-    a = synthesize_variant(scene, None, None, 3.0, 1.0, SENSOR, np.random.default_rng(7))
-    b = synthesize_variant(scene, None, None, 3.0, 1.0, SENSOR, np.random.default_rng(7))
+    a = synthesize_variant(
+        PhotonScene(scene), Condition(3.0, 1.0, SENSOR), np.random.default_rng(7)
+    )
+    b = synthesize_variant(
+        PhotonScene(scene), Condition(3.0, 1.0, SENSOR), np.random.default_rng(7)
+    )
     assert a.shape == scene.shape
     np.testing.assert_array_equal(a, b)
     assert np.nanmedian(np.abs(a - scene)) < 2 * SENSOR.bin_depth_m

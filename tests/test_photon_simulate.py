@@ -7,7 +7,7 @@ import pytest
 from photon_scenes import disc_scene
 from scipy import stats
 
-from spl_al.photon import SensorParams, histogram, simulate_photons
+from spl_al.photon import Condition, PhotonScene, SensorParams, histogram, simulate_photons
 from spl_al.photon.reference import simulate_photons_loop
 
 SENSOR = SensorParams.tabletop()
@@ -29,7 +29,9 @@ def test_signal_and_background_rates_follow_reflectance_and_sbr(scene):
     bkg = np.zeros(scene.size)
     n_frames = 8
     for _ in range(n_frames):
-        ev = simulate_photons(scene, refl, None, msppp, sbr, SENSOR, rng)
+        ev = simulate_photons(
+            PhotonScene(scene, reflectance=refl), Condition(msppp, sbr, SENSOR), rng
+        )
         sig += np.bincount(ev.pixel[ev.is_signal], minlength=scene.size)
         bkg += np.bincount(ev.pixel[~ev.is_signal], minlength=scene.size)
     sig, bkg = sig / n_frames, bkg / n_frames
@@ -49,19 +51,24 @@ def test_total_photons_per_frame(scene):
     rng = np.random.default_rng(2)
     msppp, sbr = 3.0, 2.0
     valid = scene < 5.0  # only the disc returns light
-    totals = [len(simulate_photons(scene, None, valid, msppp, sbr, SENSOR, rng)) for _ in range(20)]
+    totals = [
+        len(simulate_photons(PhotonScene(scene, valid=valid), Condition(msppp, sbr, SENSOR), rng))
+        for _ in range(20)
+    ]
     expected = msppp * valid.sum() * (1 + 1 / sbr)
     assert np.mean(totals) == pytest.approx(expected, abs=5 * np.sqrt(expected / 20))
 
 
 def test_invalid_pixels_detect_nothing(scene):
     valid = scene < 5.0
-    ev = simulate_photons(scene, None, valid, 10.0, 0.5, SENSOR, np.random.default_rng(3))
+    ev = simulate_photons(
+        PhotonScene(scene, valid=valid), Condition(10.0, 0.5, SENSOR), np.random.default_rng(3)
+    )
     assert valid.ravel()[ev.pixel].all()
 
 
 def test_background_bins_are_uniform(scene):
-    ev = simulate_photons(scene, None, None, 5.0, 0.1, SENSOR, np.random.default_rng(4))
+    ev = simulate_photons(PhotonScene(scene), Condition(5.0, 0.1, SENSOR), np.random.default_rng(4))
     counts = np.bincount(ev.bin[~ev.is_signal], minlength=SENSOR.n_bins)
     assert counts.sum() > 150_000
     assert stats.chisquare(counts).pvalue > 1e-3
@@ -71,7 +78,9 @@ def test_background_bins_are_uniform(scene):
 def test_signal_bins_centre_on_t_obs_with_sigma_spread():
     depth = np.full((64, 64), 6.0)
     sensor = SensorParams(bin_width_s=80e-12, pulse_sigma_s=3 * 80e-12, n_bins=1024)
-    ev = simulate_photons(depth, None, None, 20.0, np.inf, sensor, np.random.default_rng(5))
+    ev = simulate_photons(
+        PhotonScene(depth), Condition(20.0, np.inf, sensor), np.random.default_rng(5)
+    )
     t_obs = sensor.depth_to_bin(6.0)
     residual = ev.bin[ev.is_signal] - t_obs
     assert residual.size > 70_000
@@ -85,7 +94,9 @@ def test_signal_bins_clip_at_both_ends(edge):
     sensor = SensorParams(bin_width_s=80e-12, pulse_sigma_s=2 * 80e-12, n_bins=256)
     depth_m = 0.0 if edge == "near" else sensor.max_depth_m
     depth = np.full((32, 32), depth_m)
-    ev = simulate_photons(depth, None, None, 20.0, np.inf, sensor, np.random.default_rng(6))
+    ev = simulate_photons(
+        PhotonScene(depth), Condition(20.0, np.inf, sensor), np.random.default_rng(6)
+    )
     bins = ev.bin[ev.is_signal]
     assert bins.min() >= 0 and bins.max() <= sensor.t_max
     edge_bin = 0 if edge == "near" else sensor.t_max
@@ -101,7 +112,12 @@ def test_fraction_of_empty_pixels(scene):
     a = refl / refl.mean()
     empty = np.mean(
         [
-            np.mean(simulate_photons(scene, refl, None, msppp, sbr, SENSOR, rng).counts() == 0)
+            np.mean(
+                simulate_photons(
+                    PhotonScene(scene, reflectance=refl), Condition(msppp, sbr, SENSOR), rng
+                ).counts()
+                == 0
+            )
             for _ in range(10)
         ]
     )
@@ -111,15 +127,17 @@ def test_fraction_of_empty_pixels(scene):
 
 def test_noise_free_limit_returns_t_obs_exactly(scene):
     sensor = SensorParams(bin_width_s=80e-12, pulse_sigma_s=0.0, n_bins=1024)
-    ev = simulate_photons(scene, None, None, 4.0, np.inf, sensor, np.random.default_rng(8))
+    ev = simulate_photons(
+        PhotonScene(scene), Condition(4.0, np.inf, sensor), np.random.default_rng(8)
+    )
     assert ev.is_signal.all()
     np.testing.assert_array_equal(ev.bin, sensor.depth_to_bin(scene).ravel()[ev.pixel])
 
 
 def test_same_seed_same_photons_and_different_seed_differs(scene):
-    a = simulate_photons(scene, None, None, 5.0, 1.0, SENSOR, np.random.default_rng(9))
-    b = simulate_photons(scene, None, None, 5.0, 1.0, SENSOR, np.random.default_rng(9))
-    c = simulate_photons(scene, None, None, 5.0, 1.0, SENSOR, np.random.default_rng(10))
+    a = simulate_photons(PhotonScene(scene), Condition(5.0, 1.0, SENSOR), np.random.default_rng(9))
+    b = simulate_photons(PhotonScene(scene), Condition(5.0, 1.0, SENSOR), np.random.default_rng(9))
+    c = simulate_photons(PhotonScene(scene), Condition(5.0, 1.0, SENSOR), np.random.default_rng(10))
     np.testing.assert_array_equal(a.pixel, b.pixel)
     np.testing.assert_array_equal(a.bin, b.bin)
     assert len(a) != len(c) or not np.array_equal(a.bin, c.bin)
@@ -132,11 +150,17 @@ def test_vectorised_matches_the_loop_reference_statistically():
     fast, slow = [], []
     for seed in range(12):
         fast.append(
-            simulate_photons(depth, refl, None, msppp, sbr, SENSOR, np.random.default_rng(seed))
+            simulate_photons(
+                PhotonScene(depth, reflectance=refl),
+                Condition(msppp, sbr, SENSOR),
+                np.random.default_rng(seed),
+            )
         )
         slow.append(
             simulate_photons_loop(
-                depth, refl, None, msppp, sbr, SENSOR, np.random.default_rng(seed)
+                PhotonScene(depth, reflectance=refl),
+                Condition(msppp, sbr, SENSOR),
+                np.random.default_rng(seed),
             )
         )
 
@@ -162,7 +186,9 @@ def test_vectorised_matches_the_loop_reference_statistically():
 
 
 def test_histogram_is_a_compact_count_cube(scene):
-    ev = simulate_photons(scene, None, None, 5.0, 1.0, SENSOR, np.random.default_rng(11))
+    ev = simulate_photons(
+        PhotonScene(scene), Condition(5.0, 1.0, SENSOR), np.random.default_rng(11)
+    )
     cube = histogram(ev, scene.shape, SENSOR)
     assert cube.shape == (*scene.shape, SENSOR.n_bins)
     assert cube.dtype == np.uint8

@@ -4,14 +4,23 @@ from __future__ import annotations
 
 import numpy as np
 
-from spl_al.photon import SensorParams, load_mat, reconstruct, simulate_photons
+from spl_al.photon import (
+    Condition,
+    PhotonScene,
+    SensorParams,
+    load_mat,
+    reconstruct,
+    simulate_photons,
+)
 from spl_al.photon.pictures import demo_scene
 
 
 def test_simulated_scene_at_a_good_condition(sspi_weights):
     sensor = SensorParams.tabletop()  # 80 ps bins: the weights' simulations
     depth, refl = demo_scene()
-    ev = simulate_photons(depth, refl, None, 5.0, 1.0, sensor, np.random.default_rng(0))
+    ev = simulate_photons(
+        PhotonScene(depth, reflectance=refl), Condition(5.0, 1.0, sensor), np.random.default_rng(0)
+    )
     rec = reconstruct(ev, depth.shape, sensor, method="sspi", weights=sspi_weights)
     err_m = np.abs(rec.depth_m - depth)
     assert rec.valid.mean() > 0.99
@@ -44,7 +53,9 @@ def test_denoiser_keeps_the_signal_photons(sspi_weights):
 
     sensor = SensorParams.tabletop()
     depth, refl = demo_scene()
-    ev = simulate_photons(depth, refl, None, 2.0, 1.0, sensor, np.random.default_rng(0))
+    ev = simulate_photons(
+        PhotonScene(depth, reflectance=refl), Condition(2.0, 1.0, sensor), np.random.default_rng(0)
+    )
     cell, count = np.unique(ev.pixel.astype(np.int64) * sensor.n_bins + ev.bin, return_counts=True)
     signal = np.zeros(cell.size, bool)
     np.logical_or.at(signal, np.searchsorted(cell, ev.pixel * sensor.n_bins + ev.bin), ev.is_signal)

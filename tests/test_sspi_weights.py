@@ -9,7 +9,14 @@ import pytest
 import torch
 
 import spl_al.photon.sspi as sspi
-from spl_al.photon import Reconstruction, SensorParams, reconstruct, simulate_photons
+from spl_al.photon import (
+    Condition,
+    PhotonScene,
+    Reconstruction,
+    SensorParams,
+    reconstruct,
+    simulate_photons,
+)
 from spl_al.photon.sspi.network import expected_shapes
 from spl_al.photon.sspi.weights import ENV_VAR, load_state, weights_folder
 
@@ -48,7 +55,7 @@ def test_expected_state_has_the_published_206_entries():
 def test_no_weights_is_one_error_saying_where_to_get_them(monkeypatch, scene):
     monkeypatch.delenv(ENV_VAR, raising=False)
     sensor = SensorParams.tabletop()
-    ev = simulate_photons(scene, None, None, 2.0, 1.0, sensor, np.random.default_rng(0))
+    ev = simulate_photons(PhotonScene(scene), Condition(2.0, 1.0, sensor), np.random.default_rng(0))
     with pytest.raises(ValueError, match=r"y2w-oc/Dynamic-SSP-3D-Imaging.*Test/preTrain"):
         reconstruct(ev, scene.shape, sensor, method="sspi")
 
@@ -104,7 +111,7 @@ def small_scene(rows=12, cols=16):
 @pytest.mark.filterwarnings("ignore:frames such as")
 def test_random_weights_reconstruct_into_the_common_record(fake_weights):
     scene, sensor = small_scene(), SMALL_SENSOR
-    ev = simulate_photons(scene, None, None, 2.0, 1.0, sensor, np.random.default_rng(1))
+    ev = simulate_photons(PhotonScene(scene), Condition(2.0, 1.0, sensor), np.random.default_rng(1))
     rec = reconstruct(ev, scene.shape, sensor, method="sspi", weights=fake_weights)
     assert isinstance(rec, Reconstruction)
     assert all(f.shape == scene.shape for f in rec)
@@ -117,7 +124,7 @@ def test_random_weights_reconstruct_into_the_common_record(fake_weights):
 def test_untrained_bin_width_and_frame_warn_once(fake_weights):
     scene = small_scene(8, 10)
     sensor = SensorParams(bin_width_s=1e-9, pulse_sigma_s=1e-9, n_bins=32)
-    ev = simulate_photons(scene, None, None, 2.0, 1.0, sensor, np.random.default_rng(2))
+    ev = simulate_photons(PhotonScene(scene), Condition(2.0, 1.0, sensor), np.random.default_rng(2))
     sspi._WARNED.clear()
     with pytest.warns(UserWarning, match="bin width 1000 ps is outside the 80-100 ps") as record:
         reconstruct(ev, scene.shape, sensor, method="sspi", weights=fake_weights)
@@ -126,7 +133,36 @@ def test_untrained_bin_width_and_frame_warn_once(fake_weights):
         warnings.simplefilter("error")  # later frames, of any size: silent
         reconstruct(ev, scene.shape, sensor, method="sspi", weights=fake_weights)
         smaller = simulate_photons(
-            scene[:6], None, None, 2.0, 1.0, sensor, np.random.default_rng(3)
+            PhotonScene(scene[:6]), Condition(2.0, 1.0, sensor), np.random.default_rng(3)
         )
         reconstruct(smaller, (6, 10), sensor, method="sspi", weights=fake_weights)
     assert sspi.check_conditions(SensorParams.ugv45m(), (64, 64)) == []
+
+
+@pytest.mark.filterwarnings("ignore:frames such as")
+def test_an_sspi_variant_shard_times_one_frame_then_writes_its_variants(
+    fake_weights, tmp_path, monkeypatch, capsys
+):
+    """The workflow's variants step with ``reconstruct_method: sspi``: the job log gets
+    the expected time first, then the shard holds one SSPI variant per sample."""
+    from spl_al.data import Dataset
+    from spl_al.data.variants import VariantShard
+    from spl_al.experiment.data_steps import make_variant_shard
+
+    monkeypatch.setenv(ENV_VAR, "")  # the step exports the folder; restored after the test
+    Dataset(
+        "classification",
+        ["near", "far"],
+        np.stack([small_scene(), small_scene()[:, ::-1]]).astype(np.float32),
+        labels=np.array([0, 1]),
+        split=np.array(["train", "train"]),
+        msppp=np.array([5.0, 5.0]),
+        sbr=np.array([1.0, 1.0]),
+        level=np.array(["medium", "medium"]),
+        sensor=SMALL_SENSOR,
+    ).save(tmp_path / "observed.npz")
+    variants = {"n": 1, "shards": 1, "seed": 0, "reconstruct_method": "sspi"}
+    make_variant_shard(tmp_path / "observed.npz", variants, 0, tmp_path / "s0.npz", fake_weights)
+    assert "this shard reconstructs 2 variants" in capsys.readouterr().out
+    shard = VariantShard.load(tmp_path / "s0.npz")
+    assert shard.depth_m.shape == (2, 1, 12, 16)

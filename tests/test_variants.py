@@ -148,7 +148,7 @@ def test_variants_equal_synthesize_variant_on_the_full_frame(data, whole):
     """The bounding-box shortcut changes nothing: Algorithm 1 on the whole frame, with
     the same random stream, gives the same variants bit for bit."""
     from spl_al.data.seeds import STREAM_VARIANT, sample_rng
-    from spl_al.photon import synthesize_variant
+    from spl_al.photon import Condition, PhotonScene, synthesize_variant
 
     conditions = default_conditions(data)[:3]
     for i in range(len(data)):
@@ -156,14 +156,18 @@ def test_variants_equal_synthesize_variant_on_the_full_frame(data, whole):
         valid = data.valid[i]
         refl = np.where(valid, data.reflectance[i], 0.0)
         for j, (m, s) in enumerate(conditions):
-            full = synthesize_variant(data.depth_m[i], refl, valid, m, s, data.sensor, rng)
+            full = synthesize_variant(
+                PhotonScene(data.depth_m[i], reflectance=refl, valid=valid),
+                Condition(m, s, data.sensor),
+                rng,
+            )
             np.testing.assert_array_equal(whole.depth_m[i, j], full.astype(np.float32))
 
 
 def test_observed_images_equal_the_photon_engine_on_the_full_frame(data):
     """Observed images are the sensor model's photons, reconstructed with censoring."""
     from spl_al.data.seeds import STREAM_OBSERVE, sample_rng
-    from spl_al.photon import ObservationModel, observe_photons, reconstruct
+    from spl_al.photon import Condition, ObservationModel, PhotonScene, observe_photons, reconstruct
 
     model = ObservationModel.from_dict(data.meta["observation"])
     for i in range(len(data)):
@@ -172,7 +176,10 @@ def test_observed_images_equal_the_photon_engine_on_the_full_frame(data):
         rng = sample_rng(2, STREAM_OBSERVE, data.uid[i])
         refl = np.where(valid, data.clean_reflectance[i], 0.0)
         events = observe_photons(
-            clean, refl, valid, data.msppp[i], data.sbr[i], data.sensor, rng, model
+            PhotonScene(clean, reflectance=refl, valid=valid),
+            Condition(data.msppp[i], data.sbr[i], data.sensor),
+            rng,
+            model=model,
         )
         rec = reconstruct(events, clean.shape, data.sensor, censor=True)
         np.testing.assert_array_equal(data.depth_m[i], rec.depth_m.astype(np.float32))

@@ -21,7 +21,7 @@ from pathlib import Path
 import numpy as np
 
 from spl_al.bench.timing import markdown_table, median_seconds
-from spl_al.photon import SensorParams, simulate_photons
+from spl_al.photon import Condition, PhotonScene, SensorParams, simulate_photons
 from spl_al.photon.estimate import estimate_conditions, estimate_pulse_sigma
 from spl_al.photon.formats import writers
 from spl_al.photon.io import load_capture
@@ -38,7 +38,9 @@ def _events(sensor: SensorParams, gate_start_s: float):
     depth = 60.0 + 0.02 * xx
     depth[(yy > 36) & (xx > 12) & (xx < 44)] = 52.0
     depth -= 299_792_458.0 * gate_start_s / 2  # depth within the gate
-    return simulate_photons(depth, None, None, 5.0, 1.0, sensor, np.random.default_rng(0))
+    return simulate_photons(
+        PhotonScene(depth), Condition(5.0, 1.0, sensor), np.random.default_rng(0)
+    )
 
 
 def _write_all(folder: Path) -> dict[str, Path]:

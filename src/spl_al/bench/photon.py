@@ -20,7 +20,7 @@ from functools import partial
 import numpy as np
 
 from spl_al.bench.timing import markdown_table, median_seconds
-from spl_al.photon import SensorParams, reconstruct, simulate_photons
+from spl_al.photon import Condition, PhotonScene, SensorParams, reconstruct, simulate_photons
 from spl_al.photon.pictures import demo_scene
 from spl_al.photon.reference import simulate_photons_loop
 
@@ -39,7 +39,7 @@ def main(argv: list[str]) -> int:
     rows = []
     for msppp, sbr in CONDITIONS:
         rng = np.random.default_rng(0)
-        args_sim = (depth, refl, None, msppp, sbr, sensor, rng)
+        args_sim = (PhotonScene(depth, refl), Condition(msppp, sbr, sensor), rng)
         events = simulate_photons(*args_sim)
         t_sim = median_seconds(partial(simulate_photons, *args_sim), args.repeats)
         t_loop = median_seconds(partial(simulate_photons_loop, *args_sim), repeats=3, warmup=0)
@@ -97,7 +97,11 @@ def sspi_rows(sensor, depth, refl, weights) -> str:
 
     rows = []
     for msppp, sbr in CONDITIONS:
-        events = simulate_photons(depth, refl, None, msppp, sbr, sensor, np.random.default_rng(0))
+        events = simulate_photons(
+            PhotonScene(depth, reflectance=refl),
+            Condition(msppp, sbr, sensor),
+            np.random.default_rng(0),
+        )
         wall, cpu, peak_mb = sspi_frame_cost(events, sensor, weights)
         target = "yes" if cpu <= 2.0 else "no"  # CPU time: the wall time of a loaded machine lies
         rows.append(

@@ -29,7 +29,14 @@ from pathlib import Path
 import numpy as np
 
 from spl_al.bench.timing import markdown_table
-from spl_al.photon import SensorParams, load_mat, reconstruct, simulate_photons
+from spl_al.photon import (
+    Condition,
+    PhotonScene,
+    SensorParams,
+    load_mat,
+    reconstruct,
+    simulate_photons,
+)
 from spl_al.photon.pictures import demo_scene, depth_agreement
 
 MSPPP = (1.0, 2.0, 5.0, 10.0)
@@ -132,7 +139,9 @@ def simulated_table(weights, msppp=MSPPP, sbr=SBR, seed: int = 0) -> str:
     for m in msppp:
         for s in sbr:
             rng = np.random.default_rng(seed)
-            events = simulate_photons(depth, refl, None, m, s, sensor, rng)
+            events = simulate_photons(
+                PhotonScene(depth, reflectance=refl), Condition(m, s, sensor), rng
+            )
             cells = [f"{m:g}", f"{s:g}", f"{len(events):,}"]
             for method in METHODS:
                 rec, seconds, cpu = _timed(

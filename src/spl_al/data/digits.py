@@ -22,7 +22,7 @@ import numpy as np
 from spl_al.atomic import atomic_write
 from spl_al.data.observe import DEFAULT_LEVELS, DEFAULT_SBR, observe_image
 from spl_al.data.seeds import STREAM_OBSERVE, STREAM_SCENE, sample_rng
-from spl_al.photon import ObservationModel, SensorParams
+from spl_al.photon import Condition, ObservationModel, SensorParams
 
 DIGIT_CLASSES = tuple(f"digit{k}" for k in range(10))
 
@@ -107,9 +107,7 @@ def write_digits_folder(
             observed, _ = observe_image(
                 clean,
                 albedo,
-                msppp,
-                sbr,
-                sensor,
+                Condition(msppp, sbr, sensor),
                 sample_rng(seed, STREAM_OBSERVE, int(i)),
                 model=ObservationModel(),
             )

@@ -23,7 +23,7 @@ import numpy as np
 from spl_al.data.dataset import LEVELS
 from spl_al.data.parallel import chunk_indices, default_workers, run_chunks
 from spl_al.data.seeds import STREAM_OBSERVE, sample_rng
-from spl_al.photon import SensorParams, reconstruct, simulate_photons
+from spl_al.photon import Condition, PhotonScene, SensorParams, reconstruct, simulate_photons
 from spl_al.photon.observation import ObservationModel, observe_photons
 
 DEFAULT_LEVELS: dict[str, float] = {"high": 10.0, "medium": 5.0, "low": 2.0}
@@ -129,21 +129,23 @@ def photon_window(valid: np.ndarray, margin: int = PHOTON_MARGIN_PX) -> tuple[sl
     )
 
 
-def image_through_photons(depth_m, reflectance, valid, msppp, sbr, sensor, rng, method="pooled"):
+def image_through_photons(
+    scene: PhotonScene, condition: Condition, rng: np.random.Generator, *, method="pooled"
+):
     """``reconstruct(simulate_photons(...))`` of one image, computed on the bounding box
     of its returns (the rest of the frame has no photon), pasted back into the frame.
+
+    ``scene.valid`` must be given (the returns' mask).
 
     Returns the Reconstruction's (depth (H, W) float32 NaN at voids, reflectivity
     (H, W) float32, 0 at voids).
     """
+    valid = scene.valid
     rows, cols = photon_window(valid)
     depth = np.full(valid.shape, np.nan, np.float32)
     refl_out = np.zeros(valid.shape, np.float32)
-    crop_refl = None if reflectance is None else reflectance[rows, cols]
-    events = simulate_photons(
-        depth_m[rows, cols], crop_refl, valid[rows, cols], msppp, sbr, sensor, rng
-    )
-    rec = reconstruct(events, events.shape, sensor, method=method)
+    events = simulate_photons(scene.crop(rows, cols), condition, rng)
+    rec = reconstruct(events, events.shape, condition.sensor, method=method)
     depth[rows, cols] = rec.depth_m
     refl_out[rows, cols] = rec.reflectivity
     return depth, refl_out
@@ -152,10 +154,9 @@ def image_through_photons(depth_m, reflectance, valid, msppp, sbr, sensor, rng, 
 def observe_image(
     depth_m,
     reflectance,
-    msppp: float,
-    sbr: float,
-    sensor: SensorParams,
-    rng,
+    condition: Condition,
+    rng: np.random.Generator,
+    *,
     method="pooled",
     model: ObservationModel | None = None,
     range_compensated: bool = False,
@@ -178,10 +179,13 @@ def observe_image(
     refl = None if reflectance is None else np.where(valid, reflectance, 0.0)
     if refl is not None and not (refl[valid] > 0).any():
         refl = None  # a scene without any reflectance: uniform, as for external data
+    scene = PhotonScene(depth, refl, valid)
     if model is None:
-        return image_through_photons(depth, refl, valid, msppp, sbr, sensor, rng, method)
-    events = observe_photons(depth, refl, valid, msppp, sbr, sensor, rng, model, range_compensated)
-    rec = reconstruct(events, events.shape, sensor, method=method, censor=True)
+        return image_through_photons(scene, condition, rng, method=method)
+    events = observe_photons(
+        scene, condition, rng, model=model, range_compensated=range_compensated
+    )
+    rec = reconstruct(events, events.shape, condition.sensor, method=method, censor=True)
     return rec.depth_m.astype(np.float32), rec.reflectivity.astype(np.float32)
 
 
@@ -205,11 +209,9 @@ class Imaging:
         return observe_image(
             depth_m,
             reflectance,
-            msppp,
-            sbr,
-            self.sensor,
+            Condition(msppp, sbr, self.sensor),
             rng,
-            self.method,
+            method=self.method,
             model=self.model,
             range_compensated=self.range_compensated,
         )

@@ -40,7 +40,7 @@ from spl_al.data.observe import (
 )
 from spl_al.data.parallel import chunk_indices, default_workers, run_chunks
 from spl_al.data.seeds import STREAM_VARIANT, sample_rng
-from spl_al.photon import METHODS, SensorParams
+from spl_al.photon import METHODS, Condition, PhotonScene, SensorParams
 
 SHARD_FORMAT = "spl-al-variant-shard"
 
@@ -162,7 +162,9 @@ def variant_conditions(dataset: Dataset, n_variants: int, conditions=None):
     return conds[: int(n_variants)]
 
 
-def variants_of_image(depth_m, reflectance, conditions, sensor, rng, method="pooled"):
+def variants_of_image(
+    depth_m, reflectance, *, conditions, sensor: SensorParams, rng, method="pooled"
+):
     """The M variants of one observed image, variant j at ``conditions[j]``.
 
     Returns depth (M, H, W) float32, NaN at voids. An observed image without valid
@@ -176,9 +178,11 @@ def variants_of_image(depth_m, reflectance, conditions, sensor, rng, method="poo
     if reflectance is not None and (np.asarray(reflectance)[valid] > 0).any():
         refl = np.where(valid, reflectance, 0.0)
     if valid.any():
+        scene = PhotonScene(depth, refl, valid)
         for j, (msppp, sbr) in enumerate(conditions):
             # synthesize_variant (simulate, then reconstruct), on the returns' bounding box.
-            out[j] = image_through_photons(depth, refl, valid, msppp, sbr, sensor, rng, method)[0]
+            condition = Condition(msppp, sbr, sensor)
+            out[j] = image_through_photons(scene, condition, rng, method=method)[0]
     return out
 
 
@@ -187,7 +191,9 @@ def _variant_chunk(depth, reflectance, uid, conditions, sensor, seed, method):
     for k in range(len(depth)):
         rng = sample_rng(seed, STREAM_VARIANT, uid[k])
         refl = None if reflectance is None else reflectance[k]
-        out[k] = variants_of_image(depth[k], refl, conditions, sensor, rng, method)
+        out[k] = variants_of_image(
+            depth[k], refl, conditions=conditions, sensor=sensor, rng=rng, method=method
+        )
     return out
 
 

@@ -111,7 +111,9 @@ def _announce_sspi_shard(dataset, sensor, conditions, n_frames: int, sspi_weight
 
     def one_frame():
         rng = np.random.default_rng(0)
-        variants_of_image(dataset.depth_m[0], refl, [condition], 1, sensor, rng, "sspi")
+        variants_of_image(
+            dataset.depth_m[0], refl, conditions=[condition], sensor=sensor, rng=rng, method="sspi"
+        )
 
     one_frame()  # loads the weights once
     start = time.perf_counter()

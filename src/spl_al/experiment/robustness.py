@@ -88,6 +88,7 @@ def reimage(dataset, idx: np.ndarray, msppp: float, sbr: float, seed: int):
     """The samples ``idx`` imaged at (msppp, sbr): (depth (n, H, W) float32, source)."""
     from spl_al.data.observe import image_through_photons, observation_of, observe
     from spl_al.data.seeds import STREAM_VARIANT, sample_rng
+    from spl_al.photon import Condition, PhotonScene
 
     n = idx.size
     if dataset.clean_depth_m is not None:
@@ -116,9 +117,8 @@ def reimage(dataset, idx: np.ndarray, msppp: float, sbr: float, seed: int):
         if refl is not None:
             refl = np.where(valid, refl, 0.0) if (refl[valid] > 0).any() else None
         rng = sample_rng(seed, STREAM_VARIANT, int(dataset.uid[i]))
-        out[k] = image_through_photons(
-            dataset.depth_m[i], refl, valid, msppp, sbr, dataset.sensor, rng
-        )[0]
+        scene = PhotonScene(dataset.depth_m[i], refl, valid)
+        out[k] = image_through_photons(scene, Condition(msppp, sbr, dataset.sensor), rng)[0]
     return out, "siv"
 
 

@@ -3,6 +3,8 @@
 Public API:
 
 - ``SensorParams``: bin width, pulse sigma, number of bins (and presets).
+- ``PhotonScene`` and ``Condition``: what one frame images (depth, reflectance,
+  valid) and at which condition (MSPPP, SBR, sensor); every simulation takes both.
 - ``simulate_photons``: the measurement model of Algorithm 1 as sparse events.
 - ``histogram``: the dense (rows, cols, T) count cube of some events.
 - ``reconstruct``: depth / reflectivity / background from events (ML, or SSPI
@@ -15,6 +17,7 @@ from spl_al.photon.events import PhotonEvents, histogram
 from spl_al.photon.io import load_mat
 from spl_al.photon.observation import ObservationModel, observe_photons
 from spl_al.photon.reconstruct import METHODS, ML_METHODS, Reconstruction, reconstruct
+from spl_al.photon.scene import Condition, PhotonScene
 from spl_al.photon.sensor import SPEED_OF_LIGHT_M_PER_S, SensorParams
 from spl_al.photon.simulate import simulate_photons
 from spl_al.photon.variant import synthesize_variant
@@ -23,8 +26,10 @@ __all__ = [
     "METHODS",
     "ML_METHODS",
     "SPEED_OF_LIGHT_M_PER_S",
+    "Condition",
     "ObservationModel",
     "PhotonEvents",
+    "PhotonScene",
     "Reconstruction",
     "SensorParams",
     "histogram",

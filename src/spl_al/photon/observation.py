@@ -35,8 +35,7 @@ from dataclasses import asdict, dataclass, fields
 import numpy as np
 
 from spl_al.photon.events import PhotonEvents
-from spl_al.photon.sensor import SensorParams
-from spl_al.photon.simulate import check_condition, check_scene
+from spl_al.photon.scene import Condition, PhotonScene, check_scene
 
 _NEIGHBOURS = ((-1, 0), (1, 0), (0, -1), (0, 1))
 
@@ -129,20 +128,17 @@ def _dead_time(events: PhotonEvents, model: ObservationModel, rng) -> PhotonEven
 
 
 def observe_photons(
-    depth_m,
-    reflectance,
-    valid,
-    msppp: float,
-    sbr: float,
-    sensor: SensorParams,
+    scene: PhotonScene,
+    condition: Condition,
     rng: np.random.Generator,
+    *,
     model: ObservationModel | None = None,
     range_compensated: bool = False,
 ) -> PhotonEvents:
     """The photons a real SPL detects from a scene (module docstring for the model).
 
     Args:
-        depth_m, reflectance, valid, msppp, sbr, sensor, rng: as ``simulate_photons``.
+        scene, condition, rng: as ``simulate_photons``.
         model: the effects; default ``ObservationModel()``.
         range_compensated: the reflectance holds no range falloff (apply the model's).
 
@@ -150,8 +146,8 @@ def observe_photons(
         PhotonEvents (signal first, then background) over the whole frame.
     """
     model = ObservationModel() if model is None else model
-    msppp, sbr = check_condition(msppp, sbr)
-    depth, refl, valid, t_obs = check_scene(depth_m, reflectance, valid, sensor)
+    msppp, sbr, sensor = condition.msppp, condition.sbr, condition.sensor
+    depth, refl, valid, t_obs = check_scene(scene, sensor)
     shape = valid.shape
     rate = msppp * refl  # (rows, cols), 0 without a return
     mean_signal = rate[valid].mean()  # Algorithm 1's level, before the effects below

@@ -8,6 +8,7 @@ import numpy as np
 
 from spl_al.photon.events import PhotonEvents
 from spl_al.photon.reconstruct import reconstruct
+from spl_al.photon.scene import Condition, PhotonScene
 from spl_al.photon.sensor import SensorParams
 from spl_al.photon.simulate import simulate_photons
 
@@ -67,7 +68,9 @@ def render_condition_grid(
     probe = (20, 24)  # a pixel on the sphere
     for i, msppp in enumerate(DEMO_MSPPP):
         for j, sbr in enumerate(DEMO_SBR):
-            ev = simulate_photons(depth, refl, None, msppp, sbr, sensor, rng)
+            ev = simulate_photons(
+                PhotonScene(depth, reflectance=refl), Condition(msppp, sbr, sensor), rng
+            )
             rec = reconstruct(ev, depth.shape, sensor, method=method, weights=weights)
             voids = 100 * np.mean(~rec.valid)
             err_cm = 100 * np.nanmedian(np.abs(rec.depth_m - depth))

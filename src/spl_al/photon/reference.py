@@ -13,13 +13,14 @@ import math
 import numpy as np
 
 from spl_al.photon.events import PhotonEvents
-from spl_al.photon.sensor import SPEED_OF_LIGHT_M_PER_S, SensorParams
-from spl_al.photon.simulate import check_scene
+from spl_al.photon.scene import Condition, PhotonScene, check_scene
+from spl_al.photon.sensor import SPEED_OF_LIGHT_M_PER_S
 
 
-def simulate_photons_loop(depth_m, reflectance, valid, msppp, sbr, sensor: SensorParams, rng):
+def simulate_photons_loop(scene: PhotonScene, condition: Condition, rng: np.random.Generator):
     """Algorithm 1 pixel by pixel, photon by photon; same arguments as ``simulate_photons``."""
-    depth, refl, valid, _ = check_scene(depth_m, reflectance, valid, sensor)
+    msppp, sbr, sensor = condition.msppp, condition.sbr, condition.sensor
+    depth, refl, valid, _ = check_scene(scene, sensor)
     rows, cols = depth.shape
     valid_pixels = [(r, c) for r in range(rows) for c in range(cols) if valid[r, c]]
     sigma = sensor.sigma_bins

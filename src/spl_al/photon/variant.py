@@ -5,21 +5,18 @@ from __future__ import annotations
 import numpy as np
 
 from spl_al.photon.reconstruct import reconstruct
-from spl_al.photon.sensor import SensorParams
+from spl_al.photon.scene import Condition, PhotonScene
 from spl_al.photon.simulate import simulate_photons
 
 
 def synthesize_variant(
-    depth_m,
-    reflectance,
-    valid,
-    msppp: float,
-    sbr: float,
-    sensor: SensorParams,
+    scene: PhotonScene,
+    condition: Condition,
     rng: np.random.Generator,
+    *,
     method: str = "pooled",
 ) -> np.ndarray:
-    """One synthetic variant I_syn,j of an observed depth image at condition (msppp, sbr).
+    """One synthetic variant I_syn,j of an observed depth image at a condition (msppp, sbr).
 
     Simulates the photons of Algorithm 1 (``simulate_photons``) from the observed
     depth and reflectance, then reconstructs depth from them (``reconstruct``), so
@@ -30,5 +27,5 @@ def synthesize_variant(
     Returns:
         (rows, cols) float64 depth in metres, NaN at voids.
     """
-    events = simulate_photons(depth_m, reflectance, valid, msppp, sbr, sensor, rng)
-    return reconstruct(events, events.shape, sensor, method=method).depth_m
+    events = simulate_photons(scene, condition, rng)
+    return reconstruct(events, events.shape, condition.sensor, method=method).depth_m
