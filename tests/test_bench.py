@@ -179,8 +179,9 @@ def test_tuning_benches_score_without_the_test_split():
     clean = learnability.learning_curves(data, train["model"], fit, **kwargs)
     assert learnability.learning_curves(poisoned, train["model"], fit, **kwargs) == clean
     assert [r["n"] for r in clean] == [5, 10]  # halves of the 10 groups the fit part keeps
-    row = spread.spread_row(data, 4, train["model"], fit, [1, 2], variants=True)
-    assert spread.spread_row(poisoned, 4, train["model"], fit, [1, 2], variants=True) == row
+    kwargs = {"model_cfg": train["model"], "fit_cfg": fit, "seeds": [1, 2], "variants": True}
+    row = spread.spread_row(data, 4, **kwargs)
+    assert spread.spread_row(poisoned, 4, **kwargs) == row
 
 
 def test_estimate_counts_what_the_plan_runs(tmp_path):

@@ -42,7 +42,9 @@ def captures(tmp_path_factory) -> tuple[Path, dict[str, str]]:
     truth = {}
     for k in range(10):
         for j, i in enumerate(np.flatnonzero(digits.target == k)[:N_PER_CLASS]):
-            depth, _ = digit_scene(digits.images[i], sample_rng(0, STREAM_SCENE, int(i)), 24, 20)
+            depth, _ = digit_scene(
+                digits.images[i], sample_rng(0, STREAM_SCENE, int(i)), image_px=24, digit_px=20
+            )
             msppp = list(LEVELS)[j % 3]
             events = simulate_capture(depth, msppp, 1.0, SENSOR, seed=int(i))
             stem = f"digit{k}_{j:04d}"

@@ -93,9 +93,9 @@ def test_observed_images_follow_the_photon_budget():
         n_per_class=3, image_shape=(24, 24), classes=["bin", "human"], workers=1
     )
     clean, refl = d.clean_depth_m, d.clean_reflectance
-    high, _ = observe(clean, refl, 10.0, 5.0, d.sensor, seed=0)
-    sparse, _ = observe(clean, refl, 1.0, 5.0, d.sensor, seed=0)
-    noisy, _ = observe(clean, refl, 1.0, 0.2, d.sensor, seed=0)
+    high, _ = observe(clean, refl, 10.0, 5.0, sensor=d.sensor, seed=0)
+    sparse, _ = observe(clean, refl, 1.0, 5.0, sensor=d.sensor, seed=0)
+    noisy, _ = observe(clean, refl, 1.0, 0.2, sensor=d.sensor, seed=0)
     has = np.isfinite(clean)
     # Pixels without any photon are voids: common at 1.2 photons per pixel.
     assert np.isfinite(high)[has].mean() > np.isfinite(sparse)[has].mean() + 0.1
@@ -103,7 +103,7 @@ def test_observed_images_follow_the_photon_budget():
     assert err_high < 0.05, "at 10 photons per pixel the median depth error is a few cm"
     assert err_high < np.nanmedian(np.abs(noisy - clean))
     # Reflectivity is reconstructed with the image: zero exactly at its voids.
-    _, rec_refl = observe(clean, refl, 10.0, 5.0, d.sensor, seed=0)
+    _, rec_refl = observe(clean, refl, 10.0, 5.0, sensor=d.sensor, seed=0)
     np.testing.assert_array_equal(rec_refl[~np.isfinite(high)], 0.0)
 
 

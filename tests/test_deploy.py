@@ -268,12 +268,30 @@ def test_predict_bad_input_is_one_sentence_and_writes_nothing(
 def test_inference_bench_times_torch_and_onnxruntime():
     from spl_al.bench.inference import bench_one
 
-    result = bench_one("classification", {"arch": "smallcnn"}, (16, 16), 3, 1, 4, 3)
+    result = bench_one(
+        "classification",
+        {"arch": "smallcnn"},
+        shape=(16, 16),
+        n_classes=3,
+        threads=1,
+        batch_size=4,
+        repeats=3,
+    )
     assert set(result) == {"torch", "onnxruntime"}
     for latency_s, fps in result.values():
         assert latency_s > 0 and fps > 0
     pc = {"arch": "pointnet2", "n_points": 16, "centres": [4], "radii_m": [4], "neighbours": 4}
-    assert set(bench_one("segmentation", {**pc, "width": 4}, (8, 16), 7, 1, 2, 3)) == {"torch"}
+    assert set(
+        bench_one(
+            "segmentation",
+            {**pc, "width": 4},
+            shape=(8, 16),
+            n_classes=7,
+            threads=1,
+            batch_size=2,
+            repeats=3,
+        )
+    ) == {"torch"}
 
 
 def test_predict_on_a_real_capture(rounds, ugv45m_dir, tmp_path):

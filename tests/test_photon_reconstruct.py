@@ -52,8 +52,10 @@ def test_error_falls_as_photons_and_sbr_rise(scene, method):
 
 def test_pooled_beats_per_pixel_ml_at_low_sbr(scene):
     ev = simulate_photons(PhotonScene(scene), Condition(2.0, 0.2, SENSOR), np.random.default_rng(3))
-    out_lmf = np.nanmean(error_bins(scene, reconstruct(ev, scene.shape, SENSOR, "lmf")) > 10)
-    out_pooled = np.nanmean(error_bins(scene, reconstruct(ev, scene.shape, SENSOR, "pooled")) > 10)
+    out_lmf = np.nanmean(error_bins(scene, reconstruct(ev, scene.shape, SENSOR, method="lmf")) > 10)
+    out_pooled = np.nanmean(
+        error_bins(scene, reconstruct(ev, scene.shape, SENSOR, method="pooled")) > 10
+    )
     assert out_pooled < 0.5 * out_lmf
 
 

@@ -28,7 +28,9 @@ pytestmark = [
 @pytest.fixture(scope="module")
 def release(tmp_path_factory) -> Path:
     """40 files of 10 classes in the release's layout, 55x55, voids as zeros."""
-    root = write_digits_folder(tmp_path_factory.mktemp("release") / "frames", 4, image_px=55)
+    root = write_digits_folder(
+        tmp_path_factory.mktemp("release") / "frames", n_per_class=4, image_px=55
+    )
     with np.load(root / "digit3_0002.npz") as z:
         assert sorted(z.files) == ["Z_true", "depth_ssp"] and z["depth_ssp"].shape == (55, 55)
     return root

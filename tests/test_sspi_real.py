@@ -31,8 +31,10 @@ def test_simulated_scene_at_a_good_condition(sspi_weights):
 def test_real_capture_shows_the_wall_at_67_m(sspi_weights, real_captures):
     capture = real_captures / "car_20.mat"
     events = load_mat(capture if capture.exists() else sorted(real_captures.glob("*.mat"))[0])
-    rec = reconstruct(events, events.shape, SensorParams.ugv45m(), "sspi", weights=sspi_weights)
-    pooled = reconstruct(events, events.shape, SensorParams.ugv45m(), "pooled")
+    rec = reconstruct(
+        events, events.shape, SensorParams.ugv45m(), method="sspi", weights=sspi_weights
+    )
+    pooled = reconstruct(events, events.shape, SensorParams.ugv45m(), method="pooled")
     assert rec.valid.mean() > 0.95
     assert 66.0 < np.nanmedian(rec.depth_m) < 68.0  # most of the frame is the wall
     both = rec.valid & pooled.valid

@@ -37,7 +37,7 @@ DEFAULT_BATCH_IMAGES = {"classification": 256, "segmentation": 16}
 
 
 def _group_outputs(
-    model, depth_m, valid, idx, n_images, device, pixel_features=False, precision="fp32"
+    model, depth_m, valid, *, idx, n_images, device, pixel_features=False, precision="fp32"
 ):
     """Forward the first ``n_images`` images of groups ``idx`` in one pass.
 
@@ -125,7 +125,14 @@ def compute_inputs(
     badge_pixels = task == "segmentation" and "grad_embedding" in needs
     for s in range(0, len(unl) if scored else 0, per_batch):
         probs, pix_feats, feats, image_valid = _group_outputs(
-            model, depth_m, valid, unl[s : s + per_batch], n_images, device, badge_pixels, precision
+            model,
+            depth_m,
+            valid,
+            idx=unl[s : s + per_batch],
+            n_images=n_images,
+            device=device,
+            pixel_features=badge_pixels,
+            precision=precision,
         )
         units_valid = None if image_valid is None else image_valid[:, 0]
         if "entropy" in needs:
@@ -155,7 +162,13 @@ def compute_inputs(
         parts["labeled_features"] = [np.zeros((0, dim), dtype=np.float32)]
         for s in range(0, len(lab), batch_size):
             outputs = _group_outputs(
-                model, depth_m, valid, lab[s : s + batch_size], 1, device, precision=precision
+                model,
+                depth_m,
+                valid,
+                idx=lab[s : s + batch_size],
+                n_images=1,
+                device=device,
+                precision=precision,
             )
             add("labeled_features", outputs[2][:, 0])
     arrays = {}

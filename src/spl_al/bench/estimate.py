@@ -143,7 +143,16 @@ def _measure(case) -> tuple[float, float]:
     from spl_al.bench.training import measure
 
     task, model_cfg, fit, shape, precision, threads, steps, device = case
-    return measure(task, model_cfg, fit, shape, precision, threads, steps, device=device)
+    return measure(
+        task,
+        model_cfg,
+        fit,
+        shape=shape,
+        precision=precision,
+        threads=threads,
+        steps=steps,
+        device=device,
+    )
 
 
 def concurrent_rates(case, jobs: int) -> tuple[float, float]:

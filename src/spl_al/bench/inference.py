@@ -63,7 +63,7 @@ def _time(run, single, batch, repeats) -> tuple[float, float]:
     return latency, len(batch) / batch_s
 
 
-def bench_one(task, model_cfg, shape, n_classes, threads, batch_size, repeats) -> dict:
+def bench_one(task, model_cfg, *, shape, n_classes, threads, batch_size, repeats) -> dict:
     """Latency (ms) and throughput (frames/s) of one model in torch and onnxruntime."""
     import torch
 
@@ -102,7 +102,15 @@ def main(argv: list[str]) -> int:
     args = parser.parse_args(argv)
     rows = []
     for name, task, cfg, shape, n_classes in _models(args.config):
-        result = bench_one(task, cfg, shape, n_classes, args.threads, args.batch, args.repeats)
+        result = bench_one(
+            task,
+            cfg,
+            shape=shape,
+            n_classes=n_classes,
+            threads=args.threads,
+            batch_size=args.batch,
+            repeats=args.repeats,
+        )
         for backend, (latency_s, fps) in result.items():
             frame = f"{shape[0]}x{shape[1]}"
             timing = [f"{1000 * latency_s:.2f}", f"{fps:.0f}"]

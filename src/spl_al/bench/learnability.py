@@ -135,6 +135,7 @@ def learner_score(
     dataset,
     labeled: np.ndarray,
     held_out: np.ndarray,
+    *,
     model_cfg: dict,
     fit_cfg: dict,
     seed: int,
@@ -184,6 +185,7 @@ def learning_curves(
     dataset,
     model_cfg: dict,
     fit_cfg: dict,
+    *,
     fractions=FRACTIONS,
     seeds=SEEDS,
     log=print,
@@ -207,10 +209,14 @@ def learning_curves(
             labeled = pool[initial_labeled_set(len(pool), size, seed)]
             start = time.perf_counter()
             row["linear"].append(linear_reference(dataset, labeled, held_out, seed))
-            recipe = (dataset, labeled, held_out, model_cfg, fit_cfg, seed)
-            row["observed"].append(learner_score(*recipe, variants=False))
+            recipe = {"model_cfg": model_cfg, "fit_cfg": fit_cfg, "seed": seed}
+            row["observed"].append(
+                learner_score(dataset, labeled, held_out, **recipe, variants=False)
+            )
             if dataset.n_variants:
-                row["variants"].append(learner_score(*recipe, variants=True))
+                row["variants"].append(
+                    learner_score(dataset, labeled, held_out, **recipe, variants=True)
+                )
             log(
                 f"  n={size} seed={seed}: linear {row['linear'][-1]:.3f} "
                 f"observed {row['observed'][-1]:.3f} "
@@ -358,7 +364,7 @@ def main(argv: list[str] | None = None) -> int:
             flush=True,
         )
         rows = learning_curves(
-            data, model_cfg, fit_cfg, args.fractions, args.seeds,
+            data, model_cfg, fit_cfg, fractions=args.fractions, seeds=args.seeds,
             val_fraction=args.val_fraction, val_seed=args.val_seed,
         )  # fmt: skip
         lines += table_rows(name, rows)

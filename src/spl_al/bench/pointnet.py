@@ -61,7 +61,7 @@ def _scans(n: int, shape, seed: int = 0):
     return grid, depth, valid, labels
 
 
-def _case(label: str, shape, params: dict, batch: int, threads: int, steps: int, device: str):
+def _case(label: str, shape, *, params: dict, batch: int, threads: int, steps: int, device: str):
     """One row, run in a fresh process: (train clouds/s, inference clouds/s, peak MB)."""
     import numpy as np
     import torch
@@ -110,10 +110,10 @@ def _idle() -> float:
     return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
 
 
-def _in_fresh_process(fn, *args):
+def _in_fresh_process(fn, *args, **kwargs):
     ctx = multiprocessing.get_context("spawn")
     with cf.ProcessPoolExecutor(max_workers=1, mp_context=ctx) as pool:
-        return pool.submit(fn, *args).result()
+        return pool.submit(fn, *args, **kwargs).result()
 
 
 def main(argv: list[str]) -> int:
@@ -138,7 +138,14 @@ def main(argv: list[str]) -> int:
     for label, shape, params, batch in cases:
         for device, n_threads in devices:
             train_rate, infer_rate, peak = _in_fresh_process(
-                _case, label, shape, params, batch, n_threads, args.steps, device
+                _case,
+                label,
+                shape,
+                params=params,
+                batch=batch,
+                threads=n_threads,
+                steps=args.steps,
+                device=device,
             )
             where = "cpu" if device == "cpu" else torch.cuda.get_device_name(0)
             rows.append(

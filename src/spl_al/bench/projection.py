@@ -216,7 +216,15 @@ def main(argv: list[str]) -> int:
         cpu_cell = "-"
         if arch != "pointnet2":
             cpu_fit = {**fit, "batch_size": min(int(fit.get("batch_size", 32)), 32)}
-            rate, _ = measure(task, model_cfg, cpu_fit, shape, "fp32", args.threads, args.steps)
+            rate, _ = measure(
+                task,
+                model_cfg,
+                cpu_fit,
+                shape=shape,
+                precision="fp32",
+                threads=args.threads,
+                steps=args.steps,
+            )
             cpu_cell = f"{rate * train_flops / 1e9:.0f}"
         largest = counts["largest_job_images"]
         if dataset in rates:

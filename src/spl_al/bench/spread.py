@@ -41,6 +41,7 @@ from spl_al.pool import initial_labeled_set
 def spread_row(
     dataset,
     size: int,
+    *,
     model_cfg,
     fit_cfg,
     seeds,
@@ -54,7 +55,15 @@ def spread_row(
     pool, held_out = tuning_split(dataset, val_fraction, val_seed)
 
     def score(labeled, seed):
-        return learner_score(dataset, labeled, held_out, model_cfg, fit_cfg, seed, variants)
+        return learner_score(
+            dataset,
+            labeled,
+            held_out,
+            model_cfg=model_cfg,
+            fit_cfg=fit_cfg,
+            seed=seed,
+            variants=variants,
+        )
 
     first = pool[initial_labeled_set(len(pool), size, seeds[0])]
     train_only = [score(first, s) for s in seeds]
@@ -87,9 +96,15 @@ def main(argv: list[str] | None = None) -> int:
         n_val = len(tuning_split(data, args.val_fraction, args.val_seed)[1])
         for size in args.sizes:
             r = spread_row(
-                data, size, model_cfg, fit_cfg, args.seeds, args.variants,
-                args.val_fraction, args.val_seed,
-            )  # fmt: skip
+                data,
+                size,
+                model_cfg=model_cfg,
+                fit_cfg=fit_cfg,
+                seeds=args.seeds,
+                variants=args.variants,
+                val_fraction=args.val_fraction,
+                val_seed=args.val_seed,
+            )
             mean = float(np.mean(r["draws"]))
             binomial = (
                 f"{100 * np.sqrt(mean * (1 - mean) / n_val):.1f}"

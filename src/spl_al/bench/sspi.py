@@ -65,7 +65,9 @@ def _frame_cost_child(conn, events, sensor, weights, repeats):
     baseline = _rss_mb()
     walls, cpus = [], []
     for _ in range(repeats):
-        _, wall, cpu = _timed(lambda: reconstruct(events, events.shape, sensor, "sspi", weights))
+        _, wall, cpu = _timed(
+            lambda: reconstruct(events, events.shape, sensor, method="sspi", weights=weights)
+        )
         walls.append(wall)
         cpus.append(cpu)
     peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024  # KiB on Linux
@@ -97,9 +99,11 @@ def real_table(captures: Path, weights) -> str:
     for path in sorted(captures.glob("*.mat")):
         events = load_mat(path)
         sspi, t_sspi, cpu_sspi = _timed(
-            lambda ev=events: reconstruct(ev, ev.shape, sensor, "sspi", weights)
+            lambda ev=events: reconstruct(ev, ev.shape, sensor, method="sspi", weights=weights)
         )
-        pooled, t_pooled, _ = _timed(lambda ev=events: reconstruct(ev, ev.shape, sensor, "pooled"))
+        pooled, t_pooled, _ = _timed(
+            lambda ev=events: reconstruct(ev, ev.shape, sensor, method="pooled")
+        )
         a = depth_agreement(sspi.depth_m, pooled.depth_m)
         rows.append(
             [
@@ -146,7 +150,7 @@ def simulated_table(weights, msppp=MSPPP, sbr=SBR, seed: int = 0) -> str:
             for method in METHODS:
                 rec, seconds, cpu = _timed(
                     lambda ev=events, method=method: reconstruct(
-                        ev, depth.shape, sensor, method, weights
+                        ev, depth.shape, sensor, method=method, weights=weights
                     )
                 )
                 err = np.abs(rec.depth_m - depth)

@@ -79,7 +79,7 @@ def case_model(task: str, model_cfg: dict, shape, n_classes: int):
     return build_model(task, n_classes, arch=arch, **cfg)
 
 
-def measure(task, model_cfg, fit, shape, precision, threads, steps, device="cpu"):
+def measure(task, model_cfg, fit, *, shape, precision, threads, steps, device="cpu"):
     """(train images/s, inference images/s) of one case."""
     import torch
 
@@ -101,10 +101,26 @@ def measure(task, model_cfg, fit, shape, precision, threads, steps, device="cpu"
         train(model, depth, valid, targets, cfg, seed=0, device=device, log=io.StringIO())
         sync(device)
         rates.append(run_steps * batch / (time.perf_counter() - start))
-    predict(model, depth[:batch], valid[:batch], device, batch, "none", precision)
+    predict(
+        model,
+        depth[:batch],
+        valid[:batch],
+        device=device,
+        batch_size=batch,
+        features="none",
+        precision=precision,
+    )
     sync(device)
     start = time.perf_counter()
-    predict(model, depth, valid, device, batch, "none", precision)
+    predict(
+        model,
+        depth,
+        valid,
+        device=device,
+        batch_size=batch,
+        features="none",
+        precision=precision,
+    )
     sync(device)
     return rates[-1], len(depth) / (time.perf_counter() - start)
 
@@ -151,7 +167,14 @@ def main(argv: list[str]) -> int:
             base = None
             for precision in precisions:
                 train_rate, infer_rate = measure(
-                    task, model_cfg, fit, shape, precision, max(threads, 1), args.steps, device
+                    task,
+                    model_cfg,
+                    fit,
+                    shape=shape,
+                    precision=precision,
+                    threads=max(threads, 1),
+                    steps=args.steps,
+                    device=device,
                 )
                 base = base or train_rate
                 name = torch.cuda.get_device_name(0) if device == "cuda" else "cpu"

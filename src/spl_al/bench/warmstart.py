@@ -43,7 +43,7 @@ def budget_counts(entry: dict) -> list[int]:
 
 
 def sequence_scores(
-    data, counts, model_cfg: dict, fit_cfg: dict, warm: dict | None, seed: int, variants: bool
+    data, counts, *, model_cfg: dict, fit_cfg: dict, warm: dict | None, seed: int, variants: bool
 ) -> tuple[list[float], float]:
     """Validation scores (%) of one random-sampling sequence, and its seconds: every
     round trained cold, or (``warm``) rounds >= 1 fine-tuned with those fit fields."""
@@ -115,7 +115,15 @@ def main(argv: list[str] | None = None) -> int:
         for variants in (True, False) if args.observed else (True,):
             for start, fields in (("cold", None), ("warm", warm)):
                 runs = [
-                    sequence_scores(data, counts, model_cfg, fit_cfg, fields, s, variants)
+                    sequence_scores(
+                        data,
+                        counts,
+                        model_cfg=model_cfg,
+                        fit_cfg=fit_cfg,
+                        warm=fields,
+                        seed=s,
+                        variants=variants,
+                    )
                     for s in args.seeds
                 ]
                 scores = np.array([r[0] for r in runs])

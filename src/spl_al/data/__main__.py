@@ -131,7 +131,7 @@ def run(args: argparse.Namespace) -> str:
 
         data = Dataset.load(args.dataset)
         shard = generate_variants(
-            data, args.n_variants, seed=args.seed, shard=args.shard, workers=args.workers
+            data, n_variants=args.n_variants, seed=args.seed, shard=args.shard, workers=args.workers
         )
         shard.save(args.out)
         return f"{len(shard.indices)} samples x {args.n_variants} variants -> {args.out}"

@@ -43,6 +43,7 @@ def _upsample(img: np.ndarray, size: int) -> np.ndarray:
 def digit_scene(
     ink: np.ndarray,
     rng: np.random.Generator,
+    *,
     image_px: int = 32,
     digit_px: int = 28,
     distance_m=(15.0, 40.0),
@@ -74,6 +75,7 @@ def _save_npz(path: Path, **arrays) -> None:
 
 def write_digits_folder(
     root,
+    *,
     n_per_class: int = 100,
     image_px: int = 32,
     seed: int = 0,
@@ -101,7 +103,7 @@ def write_digits_folder(
             raise ValueError(f"only {members.size} digits of class {k}; asked {n_per_class}.")
         for j, i in enumerate(members):
             scene_rng = sample_rng(seed, STREAM_SCENE, int(i))
-            clean, albedo = digit_scene(digits.images[i], scene_rng, image_px)
+            clean, albedo = digit_scene(digits.images[i], scene_rng, image_px=image_px)
             msppp = level_values[scene_rng.integers(len(level_values))]
             sbr = sbr_values[scene_rng.integers(len(sbr_values))]
             observed, _ = observe_image(

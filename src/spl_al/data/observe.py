@@ -217,7 +217,7 @@ class Imaging:
         )
 
 
-def _observe_chunk(depth, reflectance, msppp, sbr, uid, seed: int, imaging: Imaging):
+def _observe_chunk(depth, reflectance, msppp, sbr, uid, *, seed: int, imaging: Imaging):
     out_d = np.empty(depth.shape, np.float32)
     out_r = np.empty(depth.shape, np.float32)
     for k in range(len(depth)):
@@ -243,6 +243,7 @@ def observe(
     reflectance: np.ndarray | None,
     msppp: np.ndarray,
     sbr: np.ndarray,
+    *,
     sensor: SensorParams,
     seed: int,
     uid: np.ndarray | None = None,
@@ -282,12 +283,10 @@ def observe(
             msppp[c],
             sbr[c],
             uid[c],
-            seed,
-            setup,
         )
         for c in chunk_indices(n, workers)
     ]
-    results = run_chunks(_observe_chunk, args, workers)
+    results = run_chunks(_observe_chunk, args, workers, seed=seed, imaging=setup)
     if not results:
         return np.empty_like(clean), np.empty_like(clean)
     return np.concatenate([r[0] for r in results]), np.concatenate([r[1] for r in results])

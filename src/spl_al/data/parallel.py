@@ -27,17 +27,19 @@ def chunk_indices(n_items: int, workers: int, per_worker: int = 4) -> list[np.nd
     return [c for c in np.array_split(np.arange(n_items), n_chunks) if c.size]
 
 
-def run_chunks(fn: Callable, chunk_args: Sequence[tuple], workers: int | None) -> list:
-    """``[fn(*args) for args in chunk_args]``, in order, on ``workers`` processes.
+def run_chunks(fn: Callable, chunk_args: Sequence[tuple], workers: int | None, **shared) -> list:
+    """``[fn(*args, **shared) for args in chunk_args]``, in order, on ``workers`` processes.
 
-    ``workers`` = 1 runs in this process (no pool); None uses every available core.
-    ``fn`` must be a module-level function (it is pickled to the workers).
+    ``chunk_args`` holds what differs between chunks (their samples), ``shared`` the
+    settings every chunk takes alike. ``workers`` = 1 runs in this process (no pool);
+    None uses every available core. ``fn`` must be a module-level function (it is
+    pickled to the workers).
     """
     workers = default_workers() if workers is None else int(workers)
     if workers < 1:
         raise ValueError(f"workers must be >= 1 (or None for all cores), got {workers}.")
     if workers == 1 or len(chunk_args) <= 1:
-        return [fn(*args) for args in chunk_args]
+        return [fn(*args, **shared) for args in chunk_args]
     with ProcessPoolExecutor(max_workers=min(workers, len(chunk_args))) as pool:
-        futures = [pool.submit(fn, *args) for args in chunk_args]
+        futures = [pool.submit(fn, *args, **shared) for args in chunk_args]
         return [f.result() for f in futures]

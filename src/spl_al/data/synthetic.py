@@ -194,7 +194,7 @@ def _chunk_arrays(n: int, shape: tuple[int, int], extra: dict) -> dict[str, np.n
     return out
 
 
-def _observe_into(out: dict, k: int, img, msppp: float, sbr: float, imaging, rng) -> None:
+def _observe_into(out: dict, k: int, img, *, msppp: float, sbr: float, imaging, rng) -> None:
     """Row k of out["depth"] / out["refl"]: the clean scene ``img`` seen through
     ``imaging`` at (msppp, sbr)."""
     out["depth"][k], out["refl"][k] = imaging.observe(img.depth_m, img.reflectance, msppp, sbr, rng)
@@ -229,11 +229,13 @@ def _object_chunk(chunk, categories, job: _ObjectJob):
         )
         out["distance"][k] = img.distance_m
         obs_rng = sample_rng(job.seed, STREAM_OBSERVE, uid)
-        _observe_into(out, k, img, msppp[k], sbr[k], job.imaging, obs_rng)
+        _observe_into(out, k, img, msppp=msppp[k], sbr=sbr[k], imaging=job.imaging, rng=obs_rng)
     return out
 
 
-def _assemble(task, classes, parts, labels, draw: Draw, sensor, grid, generator, meta) -> Dataset:
+def _assemble(
+    task, classes, *, parts, labels, draw: Draw, sensor, grid, generator, meta
+) -> Dataset:
     """One Dataset from the chunks of a generator: observed and clean depth and
     reflectance (and object masks or per-pixel labels when the chunks carry them)."""
     cat = {k: np.concatenate([p[k] for p in parts]) for k in parts[0]}
@@ -308,11 +310,11 @@ def make_classification_dataset(
     return _assemble(
         "classification",
         classes,
-        run_chunks(_object_chunk, args, protocol.workers),
-        labels,
-        draw,
-        protocol.sensor,
-        ScanGrid.square_pixels(view.image_shape, view.fov_deg),
+        parts=run_chunks(_object_chunk, args, protocol.workers),
+        labels=labels,
+        draw=draw,
+        sensor=protocol.sensor,
+        grid=ScanGrid.square_pixels(view.image_shape, view.fov_deg),
         generator="spl_al.scenes.objects",
         meta={
             "seed": int(protocol.seed),
@@ -351,7 +353,7 @@ def _street_chunk(chunk, job: _StreetJob):
             img.labels,
         )
         obs_rng = sample_rng(job.seed, STREAM_OBSERVE, uid)
-        _observe_into(out, k, img, msppp[k], sbr[k], job.imaging, obs_rng)
+        _observe_into(out, k, img, msppp=msppp[k], sbr=sbr[k], imaging=job.imaging, rng=obs_rng)
     return out
 
 
@@ -394,11 +396,11 @@ def make_segmentation_dataset(
     return _assemble(
         "segmentation",
         list(STREET_CLASSES),
-        run_chunks(_street_chunk, args, protocol.workers),
-        None,  # the per-pixel labels come with the scenes
-        draw,
-        protocol.sensor,
-        grid,
+        parts=run_chunks(_street_chunk, args, protocol.workers),
+        labels=None,  # the per-pixel labels come with the scenes
+        draw=draw,
+        sensor=protocol.sensor,
+        grid=grid,
         generator="spl_al.scenes.street",
         meta={
             "seed": int(protocol.seed),

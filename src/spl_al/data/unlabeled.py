@@ -36,6 +36,7 @@ from spl_al.photon import SensorParams
 def load_unlabeled_folder(
     root,
     classes,
+    *,
     task: str = "classification",
     seed_labels=None,
     depth_key: str = "depth_ssp",

@@ -186,7 +186,7 @@ def variants_of_image(
     return out
 
 
-def _variant_chunk(depth, reflectance, uid, conditions, sensor, seed, method):
+def _variant_chunk(depth, reflectance, uid, *, conditions, sensor, seed, method):
     out = np.empty((len(depth), len(conditions), *depth.shape[1:]), np.float32)
     for k in range(len(depth)):
         rng = sample_rng(seed, STREAM_VARIANT, uid[k])
@@ -210,6 +210,7 @@ def shard_indices(n_samples: int, shard: tuple[int, int]) -> np.ndarray:
 
 def generate_variants(
     dataset: Dataset,
+    *,
     n_variants: int = 4,
     conditions=None,
     seed: int = 0,
@@ -263,14 +264,18 @@ def generate_variants(
             dataset.depth_m[idx[c]],
             None if refl is None else refl[idx[c]],
             dataset.uid[idx[c]],
-            conditions,
-            sensor,
-            int(seed),
-            method,
         )
         for c in chunk_indices(len(idx), workers)
     ]
-    parts = run_chunks(_variant_chunk, args, workers)
+    parts = run_chunks(
+        _variant_chunk,
+        args,
+        workers,
+        conditions=conditions,
+        sensor=sensor,
+        seed=int(seed),
+        method=method,
+    )
     h, w = dataset.image_shape
     depth = np.concatenate(parts) if parts else np.empty((0, n_variants, h, w), np.float32)
     msppp = np.tile([m for m, _ in conditions], (len(idx), 1))
@@ -348,5 +353,13 @@ def make_variants(
     dataset: Dataset, n_variants: int = 4, conditions=None, seed: int = 0, workers=None, **kw
 ) -> Dataset:
     """``attach_variants(dataset, [generate_variants(dataset, ...)])`` in one call."""
-    shard = generate_variants(dataset, n_variants, conditions, seed, (0, 1), workers, **kw)
+    shard = generate_variants(
+        dataset,
+        n_variants=n_variants,
+        conditions=conditions,
+        seed=seed,
+        shard=(0, 1),
+        workers=workers,
+        **kw,
+    )
     return attach_variants(dataset, [shard])

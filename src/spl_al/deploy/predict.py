@@ -186,6 +186,7 @@ def predict(
     model_path,
     inputs,
     out,
+    *,
     card=None,
     overrides: dict | None = None,
     depth_key: str = RELEASE_DEPTH_KEY,

@@ -67,7 +67,7 @@ def batch_probabilities(dataset, pool_indices, model_path, model_cfg: dict) -> n
 
     model = load_model(dataset, model_cfg, model_path)
     depth, valid = dataset.groups(dataset.train_idx[np.asarray(pool_indices)], n_variants=0)
-    return predict(model, depth[:, 0], valid[:, 0], "cpu", features="none").probs
+    return predict(model, depth[:, 0], valid[:, 0], device="cpu", features="none").probs
 
 
 def label_batch(

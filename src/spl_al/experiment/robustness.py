@@ -99,7 +99,7 @@ def reimage(dataset, idx: np.ndarray, msppp: float, sbr: float, seed: int):
             refl,
             np.full(n, msppp),
             np.full(n, sbr),
-            dataset.sensor,
+            sensor=dataset.sensor,
             seed=seed,
             uid=dataset.uid[idx],
             model=model,

@@ -284,13 +284,21 @@ def train_initial(
     }
     if out.scores is not None:
         started = time.perf_counter()
-        _score_every_need(fit.model, dataset, pool_idx, m, out.scores, compute, _precision(setup))
+        _score_every_need(
+            fit.model,
+            dataset,
+            pool_idx=pool_idx,
+            m=m,
+            out_path=out.scores,
+            compute=compute,
+            precision=_precision(setup),
+        )
         record["score_seconds"] = round(time.perf_counter() - started, 3)
     write_json(record, out.record)
     return record
 
 
-def _score_every_need(model, dataset, pool_idx, m, out_path, compute, precision) -> None:
+def _score_every_need(model, dataset, *, pool_idx, m, out_path, compute, precision) -> None:
     """Scores of the unlabeled pool for every strategy: the observed-image needs, and
     with ``m`` > 0 the group needs on M = ``m`` variants."""
     from spl_al.scoring import compute_inputs

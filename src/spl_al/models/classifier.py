@@ -151,6 +151,7 @@ class SmallCNN(_PooledClassifier):
     def __init__(
         self,
         n_classes: int,
+        *,
         width: int = 16,
         stages: int = 4,
         convs_per_stage: int = 1,

@@ -399,6 +399,7 @@ class PointNet2Seg(nn.Module):
     def __init__(
         self,
         n_classes: int,
+        *,
         grid=None,
         n_points: int = 1024,
         centres=(256, 64, 16),

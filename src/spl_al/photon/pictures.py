@@ -121,6 +121,7 @@ def render_real_capture(
     events: PhotonEvents,
     sensor: SensorParams,
     path,
+    *,
     title: str = "",
     methods=("lmf", "pooled"),
     weights=None,

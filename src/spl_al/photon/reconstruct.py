@@ -275,6 +275,7 @@ def reconstruct(
     events: PhotonEvents,
     shape: tuple[int, int],
     sensor: SensorParams,
+    *,
     method: str = "pooled",
     censor: bool = False,
     weights=None,

@@ -195,7 +195,7 @@ def _reason(rows: pd.DataFrame, verdict: str) -> str:
     return "an interval spans zero or the seeds disagree"
 
 
-def _claim(claim_id, text, experiment, rows, verdict, reason=None, focus=None, seeds=None):
+def _claim(claim_id, text, experiment, rows, verdict, *, reason=None, focus=None, seeds=None):
     """One claims row of the family ``rows``; the evidence quotes ``focus`` (default:
     the weakest comparison); ``seeds`` defaults to ``_seeds_needed(rows)``."""
     if focus is None:
@@ -400,7 +400,7 @@ def _alpha_claim(cmp: pd.DataFrame) -> dict | None:
         "sensitivity",
         rows,
         verdict,
-        reason,
+        reason=reason,
         seeds=_seeds_needed(rows, margin=MARGIN_PP),
     )
 
@@ -446,7 +446,7 @@ def _ncand_claim(cmp: pd.DataFrame) -> dict | None:
         "sensitivity",
         family,
         verdict,
-        reason,
+        reason=reason,
         focus=end,
         seeds=_seeds_needed(family.iloc[:1]),
     )

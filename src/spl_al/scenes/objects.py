@@ -798,9 +798,20 @@ def render_view(
     direction = _view_direction(category, rng, instance_rng, view)
     target_fill = _u(rng, *view.fill)
     grid = ScanGrid.square_pixels(view.image_shape, view.fov_deg)
-    distance, pose = _frame(obj, centre, size, direction, target_fill, grid, view, rng)
+    distance, pose = _frame(
+        obj,
+        centre,
+        size=size,
+        direction=direction,
+        target_fill=target_fill,
+        grid=grid,
+        view=view,
+        rng=rng,
+    )
     hits = cast_mesh(grid, pose, obj)
-    hits = _add_surroundings(hits, grid, pose, centre, size, direction, view, rng)
+    hits = _add_surroundings(
+        hits, grid, pose=pose, centre=centre, size=size, direction=direction, view=view, rng=rng
+    )
     return _finish(hits, distance, view.max_range_m, target_fill, view.min_return)
 
 
@@ -834,7 +845,7 @@ def _view_direction(category, rng, instance_rng, view: ObjectView) -> np.ndarray
     )
 
 
-def _frame(obj, centre, size, direction, target_fill, grid, view: ObjectView, rng):
+def _frame(obj, centre, *, size, direction, target_fill, grid, view: ObjectView, rng):
     """(distance_m, pose): the distance at which the object fills ``target_fill`` of the
     frame, and the sensor pose there, aimed off-centre."""
     # Angular extent at a far reference distance sets the distance for the target fill.
@@ -855,7 +866,7 @@ def _frame(obj, centre, size, direction, target_fill, grid, view: ObjectView, rn
     return distance, Pose.looking_at(centre + distance * direction, aim)
 
 
-def _add_surroundings(hits, grid, pose, centre, size, direction, view: ObjectView, rng) -> Hits:
+def _add_surroundings(hits, grid, *, pose, centre, size, direction, view: ObjectView, rng) -> Hits:
     """``hits`` with a ground plane (probability ``p_ground``) and a wall behind the
     object (probability ``p_wall``), the nearest surface winning each pixel."""
     if rng.random() < view.p_ground:

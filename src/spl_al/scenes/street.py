@@ -97,7 +97,7 @@ def _ground(grid: ScanGrid, pose: Pose, road: Road, rng: np.random.Generator) ->
     on_side = down & (lat_top >= road.half_width_m)
     on_road = down & ~on_side & (lat_low < road.half_width_m)
     on_curb = down & ~on_side & ~on_road
-    t_curb = _bisect_curb(o, d, t_top, t_low, road, on_curb)
+    t_curb = _bisect_curb(o, d, t_top=t_top, t_low=t_low, road=road, mask=on_curb)
 
     hits.range_m = np.where(
         on_side, t_top, np.where(on_road, t_low, np.where(on_curb, t_curb, np.inf))
@@ -121,7 +121,7 @@ def _ground(grid: ScanGrid, pose: Pose, road: Road, rng: np.random.Generator) ->
     return hits
 
 
-def _bisect_curb(o, d, t_top, t_low, road: Road, mask, steps: int = 20) -> np.ndarray:
+def _bisect_curb(o, d, *, t_top, t_low, road: Road, mask, steps: int = 20) -> np.ndarray:
     """Range where a ray crosses |lateral| = half-width between the two ground levels."""
     out = np.full(mask.shape, np.inf)
     if not mask.any():

@@ -96,6 +96,7 @@ def predict(
     model: nn.Module,
     depth_m,
     valid,
+    *,
     device: str | torch.device | None = None,
     batch_size: int = 256,
     features: str = "image",
