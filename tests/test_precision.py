@@ -114,3 +114,15 @@ def test_the_run_config_records_the_precision_each_dataset_ran_at(tmp_path):
     assert used == {"cls": auto, "pc": "fp32", "forced": "fp32"}
     written = yaml.safe_load((tmp_path / "config.yaml").read_text())
     assert written["precision_used"] == used and written["precision"] == "auto"
+
+
+def test_a_step_resolves_its_compute_once_into_a_device_and_a_concrete_precision():
+    from spl_al.experiment.jobs import Compute
+    from spl_al.models.pointnet import PointNet2Seg
+
+    cnn = Compute("cpu", 1, "auto").resolved(build_model("classification", 3, arch="smallcnn"))
+    assert cnn == Compute("cpu", 1, "bf16" if native_bf16(torch.device("cpu")) else "fp32")
+    assert Compute("cpu", precision="auto").resolved(PointNet2Seg).precision == "fp32"
+    assert Compute("cpu", precision="bf16").resolved().precision == "bf16"  # as asked
+    with pytest.raises(ValueError, match="precision 'fp16' needs a CUDA device"):
+        Compute("cpu", precision="fp16").resolved()

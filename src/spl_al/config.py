@@ -174,10 +174,9 @@ def dataset_precision(config: dict, dataset: str) -> str:
 
 
 def train_setup(config: dict, dataset: str) -> dict:
-    """A dataset's ``train`` entry (``model``, ``fit``) with the precision in ``fit``."""
-    train = config["datasets"][dataset]["train"]
-    fit = {**train.get("fit", {}), "precision": dataset_precision(config, dataset)}
-    return {**train, "fit": fit}
+    """A dataset's ``train`` entry (``model``, ``fit``, ``warm_start``). Its precision
+    is not part of it: it travels in the step's ``Compute`` (``dataset_precision``)."""
+    return dict(config["datasets"][dataset]["train"])
 
 
 STEPS_BY_IMAGES_NOTE = (

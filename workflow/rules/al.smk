@@ -54,6 +54,7 @@ rule train_initial:
     params:
         setup=lambda w: {"train": train_setup(config, w.dataset)},
         device=config["device"],
+        precision=lambda w: dataset_precision(config, w.dataset),
     script:
         "../scripts/train_initial.py"
 
@@ -86,6 +87,7 @@ rule train:
         setup=train_params,
         score=queried_after,
         device=config["device"],
+        precision=lambda w: dataset_precision(config, w.dataset),
     script:
         "../scripts/train.py"
 

@@ -11,8 +11,7 @@ run_job(
         model_cfg=snakemake.params.model,
         names=snakemake.params.names,
         out_path=snakemake.output[0],
-        compute=Compute(snakemake.params.device, snakemake.threads),
-        precision=snakemake.params.precision,
+        compute=Compute(snakemake.params.device, snakemake.threads, snakemake.params.precision),
     ),
     preload=("spl_al.data", "spl_al.training"),
 )

@@ -13,7 +13,7 @@ run_job(
         setup=snakemake.params.setup,
         which=RoundId(w.dataset, w.method, int(w.seed), int(w.round)),
         out=ModelFiles(snakemake.output.model, snakemake.output.metrics, snakemake.output.scores),
-        compute=Compute(snakemake.params.device, snakemake.threads),
+        compute=Compute(snakemake.params.device, snakemake.threads, snakemake.params.precision),
         labels_path=snakemake.input.labels or None,
         initial=(
             ModelFiles(

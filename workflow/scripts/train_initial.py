@@ -11,7 +11,7 @@ run_job(
         n_variants=int(snakemake.wildcards.m),
         seed=int(snakemake.wildcards.seed),
         out=ModelFiles(snakemake.output.model, snakemake.output.fit, snakemake.output.scores),
-        compute=Compute(snakemake.params.device, snakemake.threads),
+        compute=Compute(snakemake.params.device, snakemake.threads, snakemake.params.precision),
     ),
     preload=("spl_al.data", "spl_al.scoring", "spl_al.training"),
     pass_log=True,

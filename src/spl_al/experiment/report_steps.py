@@ -126,15 +126,13 @@ def write_run_config(config: dict, out_path) -> dict:
     precision its models run at on the configured device (what ``precision: auto``
     resolved to here). Returns that mapping."""
     from spl_al.config import dataset_precision, write_config
+    from spl_al.experiment.jobs import Compute
     from spl_al.models import model_class
-    from spl_al.training import resolve_device
-    from spl_al.training.precision import resolve_precision
 
-    device = resolve_device(config.get("device", "auto"))
     used = {}
     for name, entry in config["datasets"].items():
-        arch = entry["train"].get("model", {}).get("arch")
-        cls = model_class(entry["task"], arch)
-        used[name] = resolve_precision(dataset_precision(config, name), device, cls)
+        cls = model_class(entry["task"], entry["train"].get("model", {}).get("arch"))
+        compute = Compute(config.get("device", "auto"), precision=dataset_precision(config, name))
+        used[name] = compute.resolved(cls).precision
     write_config({**config, "precision_used": used}, out_path)
     return used

@@ -191,21 +191,20 @@ def evaluate_grid(
     out_path,
     compute: Compute = LOCAL,
     batch_size: int = 256,
-    precision: str = "fp32",
 ) -> list[dict]:
     """Metric of saved models on every cell of the grid, written as a JSON list.
 
     ``model_paths``: one model per seed of ``names["seeds"]`` (same order);
     ``names``: dataset, method, seeds, round (recorded as they are). Each model's
     cells are evaluated in one pass (condition ids stand in for MSPPP levels in
-    ``evaluate``); one record per seed, with the ``precision`` used.
+    ``evaluate``) at ``compute``'s device and precision; one record per seed, with the
+    precision used.
     """
     import torch
 
     from spl_al.data import SCENE_FIELDS, Dataset
-    from spl_al.experiment.round_steps import model_for
-    from spl_al.training import evaluate, resolve_device
-    from spl_al.training.precision import resolve_precision
+    from spl_al.experiment.round_steps import model_for, resolved_for
+    from spl_al.training import evaluate
 
     model_paths = [model_paths] if isinstance(model_paths, str | Path) else list(model_paths)
     seeds = [int(s) for s in names["seeds"]]
@@ -216,6 +215,7 @@ def evaluate_grid(
         )
     compute.apply()
     dataset = Dataset.load(observed_path, skip=SCENE_FIELDS)
+    compute = resolved_for(compute, dataset, model_cfg)
     grid = load_grid(shard_paths)
     c, n = grid["depth"].shape[:2]
     depth = grid["depth"].reshape(c * n, *grid["depth"].shape[2:])
@@ -236,7 +236,7 @@ def evaluate_grid(
             classes=dataset.classes,
             device=compute.device,
             batch_size=batch_size,
-            precision=precision,
+            precision=compute.precision,
         )
         per_cell = metrics["per_level"]
         records.append(
@@ -248,7 +248,7 @@ def evaluate_grid(
                 "metric": key,
                 "source": grid["source"],
                 "n_test": int(n),
-                "precision": resolve_precision(precision, resolve_device(compute.device), model),
+                "precision": compute.precision,
                 "cells": [
                     {
                         "msppp": float(grid["msppp"][k]),

@@ -72,6 +72,14 @@ def write_initial_set(idx, seed: int, out_path) -> dict:
 # ---------------------------------------------------------------- models
 
 
+def resolved_for(compute: Compute, dataset, model_cfg: dict) -> Compute:
+    """``compute`` resolved for ``dataset``'s configured model (``Compute.resolved``):
+    where a step decides, once, the device and what precision "auto" means there."""
+    from spl_al.models import model_class
+
+    return compute.resolved(model_class(dataset.task, model_cfg.get("arch")))
+
+
 def model_for(dataset, model_cfg: dict):
     """The configured model (``model_cfg``: arch and its parameters) for ``dataset``;
     an architecture that needs the scan grid (PointNet++) gets ``dataset.grid()``."""
@@ -139,26 +147,29 @@ def fit_and_evaluate(
     ``given``; ``n_variants`` variants each) and evaluate it on the test split.
 
     ``train_setup``: ``model`` (arch and parameters) and ``fit`` (a TrainConfig).
+    ``compute``: resolved (``Compute.resolved``); its precision is the fit's and the
+    evaluation's, and the one the ``Fit`` records.
     ``warm_from``: the weights of the method's previous round; when given, training
     starts from them with ``fit`` updated by ``train_setup["warm_start"]`` (fewer
     steps), else from fresh weights.
     """
-    from spl_al.training import TrainConfig, evaluate, resolve_device, train
-    from spl_al.training.precision import resolve_precision
+    from spl_al.training import TrainConfig, evaluate, train
 
     started = time.perf_counter()
-    fit = train_setup.get("fit", {})
-    if warm_from is not None:
-        fit = {**fit, **(train_setup.get("warm_start") or {}), "from_scratch": False}
-    cfg = TrainConfig.from_dict({**fit, "num_threads": compute.threads})
-    depth, valid = dataset.groups(dataset.train_idx[pool_idx], n_variants=n_variants)
-    targets = np.repeat(given, depth.shape[1], axis=0)
-    images = depth.reshape(-1, *depth.shape[2:])
     model = (
         model_for(dataset, train_setup["model"])
         if warm_from is None
         else load_model(dataset, train_setup["model"], warm_from).train()
     )
+    fit = train_setup.get("fit", {})
+    if warm_from is not None:
+        fit = {**fit, **(train_setup.get("warm_start") or {}), "from_scratch": False}
+    cfg = TrainConfig.from_dict(
+        {**fit, "num_threads": compute.threads, "precision": compute.precision}
+    )
+    depth, valid = dataset.groups(dataset.train_idx[pool_idx], n_variants=n_variants)
+    targets = np.repeat(given, depth.shape[1], axis=0)
+    images = depth.reshape(-1, *depth.shape[2:])
     model = train(
         model,
         images,
@@ -181,16 +192,15 @@ def fit_and_evaluate(
         classes=dataset.classes,
         device=compute.device,
         batch_size=cfg.eval_batch_size,
-        precision=cfg.precision,
+        precision=compute.precision,
     )
-    used = resolve_precision(cfg.precision, resolve_device(compute.device), model)
     n, groups = int(images.shape[0]), len(pool_idx)
     return Fit(
         model,
         metrics,
         n,
         train_seconds,
-        used,
+        compute.precision,
         train_steps=cfg.total_steps(n, groups),
         images_seen=cfg.images_seen(n, groups),
     )
@@ -207,13 +217,6 @@ def _fit_of_record(model, record: dict) -> Fit:
         train_steps=record.get("train_steps"),
         images_seen=record.get("images_seen"),
     )
-
-
-def _precision(setup: dict) -> str:
-    """The precision a round's fit asks for (TrainConfig's default when it says none)."""
-    from spl_al.training import TrainConfig
-
-    return setup["train"].get("fit", {}).get("precision", TrainConfig.precision)
 
 
 def dataset_facts(dataset) -> dict:
@@ -258,6 +261,7 @@ def train_initial(
 
     compute.apply()
     dataset = Dataset.load(dataset_path, skip=SCENE_FIELDS)
+    compute = resolved_for(compute, dataset, setup["train"]["model"])
     pool_idx = read_labeled(labeled_path)
     given = dataset.labels[dataset.train_idx[pool_idx]]
     m = int(n_variants)
@@ -291,14 +295,13 @@ def train_initial(
             m=m,
             out_path=out.scores,
             compute=compute,
-            precision=_precision(setup),
         )
         record["score_seconds"] = round(time.perf_counter() - started, 3)
     write_json(record, out.record)
     return record
 
 
-def _score_every_need(model, dataset, *, pool_idx, m, out_path, compute, precision) -> None:
+def _score_every_need(model, dataset, *, pool_idx, m, out_path, compute) -> None:
     """Scores of the unlabeled pool for every strategy: the observed-image needs, and
     with ``m`` > 0 the group needs on M = ``m`` variants."""
     from spl_al.scoring import compute_inputs
@@ -318,7 +321,7 @@ def _score_every_need(model, dataset, *, pool_idx, m, out_path, compute, precisi
             unlabeled,
             pool_idx,
             device=compute.device,
-            precision=precision,
+            precision=compute.precision,
         )
         parts.update(
             {f: getattr(inputs, f) for f in ARRAY_FIELDS if getattr(inputs, f) is not None}
@@ -477,6 +480,7 @@ def train_round(
 
     compute.apply()
     dataset = Dataset.load(dataset_path, skip=SCENE_FIELDS)
+    compute = resolved_for(compute, dataset, setup["train"]["model"])
     fit = _round_model(
         dataset,
         pool_idx,
@@ -498,7 +502,6 @@ def train_round(
             method=method,
             out_path=out.scores,
             compute=compute,
-            precision=_precision(setup),
         )
     else:
         unlabeled = np.setdiff1d(np.arange(len(dataset.train_idx)), pool_idx)
@@ -557,11 +560,11 @@ def score_pool(
     method: MethodSpec,
     out_path,
     compute: Compute = LOCAL,
-    precision: str = "fp32",
 ) -> dict:
     """Forward passes over the unlabeled training groups: exactly what the method's
-    strategy needs (``strategy.needs``), saved for the query step. No labels are read:
-    the strategy inputs are built from images and the model alone."""
+    strategy needs (``strategy.needs``), saved for the query step, at ``compute``'s
+    device and precision. No labels are read: the strategy inputs are built from
+    images and the model alone."""
     from spl_al.scoring import compute_inputs
     from spl_al.strategies import get
 
@@ -579,7 +582,7 @@ def score_pool(
         unlabeled,
         labeled,
         device=compute.device,
-        precision=precision,
+        precision=compute.precision,
     )
     inputs.save(out_path)
     return {"unlabeled": int(unlabeled.size), "seconds": round(time.perf_counter() - started, 3)}
@@ -600,6 +603,7 @@ def score_round(
 
     compute.apply()
     dataset = Dataset.load(dataset_path, skip=SCENE_FIELDS)
+    compute = resolved_for(compute, dataset, setup["train"]["model"])
     method = MethodSpec(name=method_name, **{"params": {}, **setup["method"]})
     model = load_model(dataset, setup["train"]["model"], model_path)
     return score_pool(
@@ -609,7 +613,6 @@ def score_round(
         method=method,
         out_path=out_path,
         compute=compute,
-        precision=_precision(setup),
     )
 
 
