@@ -8,8 +8,8 @@ from pathlib import Path
 import pytest
 from photon_scenes import disc_scene
 
+from spl_al.bench.estimate import ESTIMATE_ENV
 from spl_al.config import REAL_CAPTURES_ENV
-from spl_al.experiment.overview import ESTIMATE_ENV
 
 # The test runs' plans leave out the time estimate: it times every model first.
 os.environ.setdefault(ESTIMATE_ENV, "0")

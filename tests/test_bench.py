@@ -229,3 +229,10 @@ def test_a_helper_module_is_no_bench(capsys):
     assert "timing" not in bench_main.available()
     assert bench_main.main(["timing", "--help"]) == 2
     assert "unknown benchmark 'timing'" in capsys.readouterr().err
+
+
+def test_the_estimate_names_a_config_file_that_does_not_exist(tmp_path, capsys):
+    with pytest.raises(SystemExit) as stop:
+        bench_main.main(["estimate", "--configfile", str(tmp_path / "mine.yaml")])
+    assert stop.value.code == 2
+    assert "mine.yaml: no such file" in capsys.readouterr().err

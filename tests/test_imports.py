@@ -36,14 +36,7 @@ LAYERS: list[tuple[str, list[str]]] = [
 ]
 
 # (importer, imported): why the arrow still points up. Remove an entry with its arrow.
-UPWARD: dict[tuple[str, str], str] = {
-    ("spl_al.deploy.card", "spl_al.experiment.round_steps"): (
-        "build_card reads a round's labeled set with the workflow's read_labeled"
-    ),
-    ("spl_al.experiment.overview", "spl_al.bench.estimate"): (
-        "the plan a run prints first includes the bench's wall-time estimate"
-    ),
-}
+UPWARD: dict[tuple[str, str], str] = {}
 
 
 def modules() -> dict[str, Path]:

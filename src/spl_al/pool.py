@@ -10,6 +10,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from spl_al.atomic import read_json
+
 # a fixed stream id, so the round-0 set is independent of any other use of the seed
 _INITIAL_SET_STREAM = 0x5EED_0001
 
@@ -148,3 +150,12 @@ class Oracle:
     def queried_idx(self) -> np.ndarray:
         """Every index whose label has been revealed so far, ascending."""
         return np.flatnonzero(self._queried).astype(np.int64)
+
+
+def read_labeled(path) -> np.ndarray:
+    """Training-split indices of a labeled set file (``labeled.json``: the round-0 set
+    or a query's result, its ``pool_indices``)."""
+    record = read_json(path)
+    if "pool_indices" not in record:
+        raise ValueError(f"{path}: not a labeled set (no 'pool_indices').")
+    return np.asarray(record["pool_indices"], dtype=np.int64)

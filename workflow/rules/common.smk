@@ -25,7 +25,7 @@ from spl_al.data.external import folder_has_levels
 from spl_al.photon.io import ReadOptions
 from spl_al.data.label_files import lists_training_rows
 from spl_al.experiment.warm import Server
-from spl_al.experiment.overview import estimate_minutes, jobs_line, plan_text
+from spl_al.experiment.overview import jobs_line, plan_text
 from spl_al.experiment.plan import (
     batch_of,
     budget_families,
@@ -134,6 +134,8 @@ def print_jobs_line():
     except Exception:  # a run without --cores (a cluster): one estimate per job
         at_once = 1
     jobs = len(workflow.dag)
+    from spl_al.bench.estimate import estimate_minutes  # times each model: only when run
+
     logger.info(
         jobs_line(jobs, RESULTS, estimate_minutes(config, at_once) if jobs else None)
     )

@@ -258,6 +258,24 @@ HEADER = ["dataset", "precision", "train images/s", "trainings", "jobs", "train 
           "eval+score core-min", "data core-min", "wall min"]  # fmt: skip
 
 
+ESTIMATE_ENV = "SPL_AL_ESTIMATE"
+"""Set to 0 to leave the time estimate out of the plan (it times each model first)."""
+
+
+def estimate_minutes(config: dict, jobs: int = 2) -> float | None:
+    """Predicted wall minutes of the run (``estimate_config``, ~10 s
+    per dataset), or None when ``$SPL_AL_ESTIMATE`` is 0 or the config cannot be
+    estimated (a dataset known only from its files)."""
+    if os.environ.get(ESTIMATE_ENV, "1") == "0":
+        return None
+    try:
+        skipped: list[str] = []
+        result = estimate_config(config, jobs, steps=10, log=skipped.append)
+    except Exception:  # an estimate is a courtesy, never a failed run
+        return None
+    return None if skipped or not result["rows"] else result["wall_s"] / 60
+
+
 def main(argv: list[str]) -> int:
     """Print the estimate table of a config; the exit code."""
     parser = argparse.ArgumentParser(prog="python -m spl_al.bench estimate", description=__doc__)
@@ -267,6 +285,9 @@ def main(argv: list[str]) -> int:
     parser.add_argument("--jobs", "-j", type=int, default=2, help="jobs at a time (snakemake -j)")
     parser.add_argument("--steps", type=int, default=30, help="timed training steps per model")
     args = parser.parse_args(argv)
+    missing = [str(p) for p in args.configfile if not p.is_file()]
+    if missing:
+        parser.error(f"--configfile {', '.join(missing)}: no such file (give YAML config files)")
     config = merged_config(args.configfile)
     result = estimate_config(config, args.jobs, args.steps)
     wall = result["wall_s"]

@@ -205,7 +205,7 @@ def build_card(
     """
     import spl_al
     from spl_al.data import SCENE_FIELDS, Dataset
-    from spl_al.experiment.round_steps import read_labeled
+    from spl_al.pool import read_labeled
 
     dataset = Dataset.load(dataset_path, skip=SCENE_FIELDS)
     pool_idx = read_labeled(labeled_path)

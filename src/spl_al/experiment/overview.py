@@ -113,25 +113,3 @@ def jobs_line(n_jobs: int, results: str, minutes: float | None = None) -> str:
         else ""
     )
     return f"Plan: {n_jobs} jobs to run{time}; results in {results}/"
-
-
-ESTIMATE_ENV = "SPL_AL_ESTIMATE"
-"""Set to 0 to leave the time estimate out of the plan (it times each model first)."""
-
-
-def estimate_minutes(config: dict, jobs: int = 2) -> float | None:
-    """Predicted wall minutes of the run (``spl_al.bench.estimate.estimate_config``, ~10 s
-    per dataset), or None when ``$SPL_AL_ESTIMATE`` is 0 or the config cannot be
-    estimated (a dataset known only from its files)."""
-    import os
-
-    if os.environ.get(ESTIMATE_ENV, "1") == "0":
-        return None
-    try:
-        from spl_al.bench.estimate import estimate_config
-
-        skipped: list[str] = []
-        result = estimate_config(config, jobs, steps=10, log=skipped.append)
-    except Exception:  # an estimate is a courtesy, never a failed run
-        return None
-    return None if skipped or not result["rows"] else result["wall_s"] / 60

@@ -16,6 +16,7 @@ import numpy as np
 from spl_al.atomic import atomic_write, read_json, write_json
 from spl_al.experiment.jobs import LOCAL, Compute, ModelFiles, RoundId
 from spl_al.experiment.plan import MethodSpec
+from spl_al.pool import read_labeled
 
 # Streams of np.random.SeedSequence([seed, round, stream]): one per kind of draw.
 _TRAIN_STREAM = 1
@@ -28,14 +29,6 @@ def step_seed(seed: int, round_: int, stream: int) -> int:
 
 
 # ---------------------------------------------------------------- labeled sets
-
-
-def read_labeled(path) -> np.ndarray:
-    """Training-split indices of a labeled set written by ``initial_set`` or ``query``."""
-    record = read_json(path)
-    if "pool_indices" not in record:
-        raise ValueError(f"{path}: not a labeled set (no 'pool_indices').")
-    return np.asarray(record["pool_indices"], dtype=np.int64)
 
 
 def initial_set(dataset_path, al: dict, seed: int, out_path) -> dict:
