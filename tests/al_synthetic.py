@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from spl_al.labels import IGNORE_INDEX
+from spl_al.label_codes import IGNORE_INDEX
 
 
 def shapes_groups(n: int, n_groups: int = 3, size: int = 16, seed: int = 0, void: float = 0.1):

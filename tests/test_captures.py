@@ -1,4 +1,4 @@
-"""spl_al.data.captures: a folder of captures becomes a release-layout folder with levels."""
+"""spl_al.data.raw_captures: a folder of captures becomes a release-layout folder with levels."""
 
 from __future__ import annotations
 
@@ -8,7 +8,7 @@ from photon_captures import simulate_capture, write_cube_npz, write_timestamps_m
 from photon_scenes import disc_scene
 
 from spl_al.data import load_folder
-from spl_al.data.captures import (
+from spl_al.data.raw_captures import (
     CaptureOptions,
     assign_levels,
     capture_files,

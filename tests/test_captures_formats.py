@@ -11,7 +11,7 @@ import pytest
 from photon_captures import simulate_capture, write_cube_h5, write_cube_npz, write_timestamps_mat
 from photon_scenes import disc_scene
 
-from spl_al.data.captures import (
+from spl_al.data.raw_captures import (
     CaptureOptions,
     check_timing,
     not_read,

@@ -15,7 +15,7 @@ from spl_al.data import (
 from spl_al.data.observe import assign_conditions, condition_set
 from spl_al.data.pictures import contact_sheet, variants_sheet
 from spl_al.data.storage import choose_depth_step
-from spl_al.labels import IGNORE_INDEX
+from spl_al.label_codes import IGNORE_INDEX
 from spl_al.photon import SensorParams
 from spl_al.scenes import CATEGORIES, STREET_CLASSES
 

@@ -13,8 +13,8 @@ from spl_al.data import Dataset
 from spl_al.data.label_files import labels_for, save_labels
 from spl_al.data.unlabeled import load_unlabeled_folder
 from spl_al.experiment.human import accept_labels
+from spl_al.label_codes import IGNORE_INDEX, UNKNOWN_CLASS
 from spl_al.labeling import read_label_file, write_batch
-from spl_al.labels import IGNORE_INDEX, UNKNOWN_CLASS
 
 CLASSES = ["car", "person", "bike"]
 

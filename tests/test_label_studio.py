@@ -28,9 +28,9 @@ from PIL import Image
 from spl_al.data import Dataset
 from spl_al.data.label_files import labels_for
 from spl_al.experiment.human import accept_labels
+from spl_al.label_codes import IGNORE_INDEX
 from spl_al.labeling import read_label_file, write_batch
 from spl_al.labeling.label_studio import decode_rle, read_export, rle_to_mask
-from spl_al.labels import IGNORE_INDEX
 
 ROOT = Path(__file__).resolve().parents[1]
 FIXTURES = Path(__file__).parent / "fixtures" / "label_studio"

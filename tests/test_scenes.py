@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from spl_al.data.seeds import sample_rng
-from spl_al.labels import IGNORE_INDEX
+from spl_al.label_codes import IGNORE_INDEX
 from spl_al.scenes import mesh as M
 from spl_al.scenes import raycast
 from spl_al.scenes.objects import CATEGORIES, render_object

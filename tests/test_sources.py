@@ -45,7 +45,12 @@ def reconstructed_captures(root: Path, labeled: bool) -> tuple[Path, Path]:
     from photon_captures import simulate_capture, write_cube_npz
     from photon_scenes import disc_scene
 
-    from spl_al.data.captures import CaptureOptions, capture_files, reconstruct_shard, write_release
+    from spl_al.data.raw_captures import (
+        CaptureOptions,
+        capture_files,
+        reconstruct_shard,
+        write_release,
+    )
     from spl_al.photon import SensorParams
 
     sensor = SensorParams(bin_width_s=80e-12, pulse_sigma_s=520e-12, n_bins=1024)

@@ -10,7 +10,7 @@ import torch.nn.functional as F
 from al_synthetic import shapes_groups, street_groups
 from torch import nn
 
-from spl_al.labels import IGNORE_INDEX
+from spl_al.label_codes import IGNORE_INDEX
 from spl_al.models import build_model
 from spl_al.training import (
     TrainConfig,

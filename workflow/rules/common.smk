@@ -12,7 +12,7 @@ from spl_al.config import (
     train_setup,
     training_notes,
 )
-from spl_al.data.captures import (
+from spl_al.data.raw_captures import (
     CaptureOptions,
     capture_files,
     check_timing,

@@ -42,7 +42,7 @@ from pathlib import Path
 import numpy as np
 
 from spl_al.data import storage
-from spl_al.labels import IGNORE_INDEX, UNKNOWN_CLASS
+from spl_al.label_codes import IGNORE_INDEX, UNKNOWN_CLASS
 from spl_al.photon import SensorParams
 
 FORMAT = "spl-al-dataset"

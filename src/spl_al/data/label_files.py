@@ -29,7 +29,7 @@ import numpy as np
 
 from spl_al.atomic import atomic_write
 from spl_al.data.dataset import Dataset
-from spl_al.labels import IGNORE_INDEX
+from spl_al.label_codes import IGNORE_INDEX
 
 LABELS_FORMAT = "spl-al-labels"
 

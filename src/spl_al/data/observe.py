@@ -24,7 +24,7 @@ from spl_al.data.dataset import LEVELS
 from spl_al.data.parallel import chunk_indices, default_workers, run_chunks
 from spl_al.data.seeds import STREAM_OBSERVE, sample_rng
 from spl_al.photon import Condition, PhotonScene, SensorParams, reconstruct, simulate_photons
-from spl_al.photon.observation import ObservationModel, observe_photons
+from spl_al.photon.effects import ObservationModel, observe_photons
 
 DEFAULT_LEVELS: dict[str, float] = {"high": 10.0, "medium": 5.0, "low": 2.0}
 DEFAULT_SBR: tuple[float, ...] = (0.2, 1.0, 5.0)

@@ -17,7 +17,7 @@ from pathlib import Path
 import numpy as np
 
 from spl_al.data.dataset import Dataset
-from spl_al.labels import IGNORE_INDEX
+from spl_al.label_codes import IGNORE_INDEX
 from spl_al.plotting import (
     condition_title,
     depth_range,

@@ -37,7 +37,7 @@ from spl_al.data.seeds import (
     sample_rng,
 )
 from spl_al.photon import METHODS, SensorParams
-from spl_al.photon.observation import ObservationModel
+from spl_al.photon.effects import ObservationModel
 from spl_al.scenes.objects import CATEGORIES, ObjectView, render_view
 from spl_al.scenes.raycast import ScanGrid
 from spl_al.scenes.street import STREET_CLASSES, default_grid, render_street

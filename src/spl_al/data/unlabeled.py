@@ -29,7 +29,7 @@ from spl_al.data.external import (
     resize_nearest,
 )
 from spl_al.data.label_files import class_index, read_mask, read_rows
-from spl_al.labels import IGNORE_INDEX, UNKNOWN_CLASS
+from spl_al.label_codes import IGNORE_INDEX, UNKNOWN_CLASS
 from spl_al.photon import SensorParams
 
 

@@ -49,7 +49,7 @@ class RunFacts:
         seed, round: the run seed and the round whose model this is.
         train: the training setup (``model``: arch and parameters, ``fit``: recipe).
         reconstruction: how a raw capture becomes depth for this model (method and
-            the capture options of ``spl_al.data.captures.CaptureOptions``).
+            the capture options of ``spl_al.data.raw_captures.CaptureOptions``).
         config: the config the model depends on (hashed into ``config_hash``).
     """
 

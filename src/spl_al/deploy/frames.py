@@ -18,7 +18,7 @@ from pathlib import Path
 
 import numpy as np
 
-from spl_al.data.captures import CaptureOptions
+from spl_al.data.raw_captures import CaptureOptions
 from spl_al.photon.io import SUPPORTED_FORMATS, list_captures
 
 RELEASE_DEPTH_KEY = "depth_ssp"

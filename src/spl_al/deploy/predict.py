@@ -28,7 +28,7 @@ from pathlib import Path
 import numpy as np
 
 from spl_al.deploy.frames import RELEASE_DEPTH_KEY, Frame, capture_options, read_frames
-from spl_al.labels import IGNORE_INDEX
+from spl_al.label_codes import IGNORE_INDEX
 
 CSV_NAME = "predictions.csv"
 

@@ -28,20 +28,20 @@ def make_dataset(entry: dict, out_path, release_dir=None) -> dict:
 
 
 def reconstruct_captures(entry: dict, shard: int, out_path, sspi_weights=None) -> dict:
-    """Reconstruct shard ``shard`` of a captures dataset's files (``spl_al.data.captures``)."""
-    from spl_al.data import captures
+    """Reconstruct shard ``shard`` of a captures dataset's files (``spl_al.data.raw_captures``)."""
+    from spl_al.data import raw_captures
 
-    options = captures.CaptureOptions.from_dict(entry.get("captures"))
-    every = captures.capture_files(entry["path"])
-    files = captures.shard_of(every, captures.shard_count(options, len(every)), shard)
+    options = raw_captures.CaptureOptions.from_dict(entry.get("captures"))
+    every = raw_captures.capture_files(entry["path"])
+    files = raw_captures.shard_of(every, raw_captures.shard_count(options, len(every)), shard)
     start = time.perf_counter()
-    n = captures.reconstruct_shard(entry["path"], files, out_path, options, sspi_weights)
+    n = raw_captures.reconstruct_shard(entry["path"], files, out_path, options, sspi_weights)
     return {"captures": n, "seconds": round(time.perf_counter() - start, 2)}
 
 
 def release_captures(entry: dict, shard_paths, out_dir) -> dict:
     """The release-layout folder of a captures dataset's reconstructions, levels split."""
-    from spl_al.data.captures import CaptureOptions, write_release
+    from spl_al.data.raw_captures import CaptureOptions, write_release
 
     options = CaptureOptions.from_dict(entry.get("captures"))
     write_release(shard_paths, out_dir, options)

@@ -26,8 +26,8 @@ import numpy as np
 
 from spl_al.data.dataset import Dataset
 from spl_al.data.label_files import read_label_csv, sample_file
+from spl_al.label_codes import IGNORE_INDEX
 from spl_al.labeling.label_studio import read_export, write_import
-from spl_al.labels import IGNORE_INDEX
 from spl_al.plotting import (
     class_colours,
     condition_title,

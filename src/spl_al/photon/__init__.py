@@ -13,14 +13,14 @@ Public API:
 - ``load_mat``: import a real capture stored as a sparse pixels x bins matrix.
 """
 
+from spl_al.photon.effects import ObservationModel, observe_photons
 from spl_al.photon.events import PhotonEvents, histogram
 from spl_al.photon.io import load_mat
-from spl_al.photon.observation import ObservationModel, observe_photons
 from spl_al.photon.reconstruct import METHODS, ML_METHODS, Reconstruction, reconstruct
 from spl_al.photon.scene import Condition, PhotonScene
 from spl_al.photon.sensor import SPEED_OF_LIGHT_M_PER_S, SensorParams
 from spl_al.photon.simulate import simulate_photons
-from spl_al.photon.variant import synthesize_variant
+from spl_al.photon.siv import synthesize_variant
 
 __all__ = [
     "METHODS",

@@ -22,8 +22,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.special import ndtr, pdtr
 
-from spl_al.photon.events import PhotonEvents
-from spl_al.photon.reconstruction import Reconstruction
+from spl_al.photon.events import PhotonEvents, Reconstruction
 
 _MAX_PHOTONS = 400_000  # above this, a random subset of pixels is used (pairs stay whole)
 _WINDOW_SIGMAS = 5.0  # the fine fit sees lags up to this many lag standard deviations

@@ -1,8 +1,11 @@
-"""Sparse photon events: the raw measurement R of one SPL frame."""
+"""The photon engine's two records: the sparse photon events of one SPL frame (its
+raw measurement R), and the ``Reconstruction`` every reconstruction method recovers
+from them (``spl_al.photon.reconstruct`` and ``spl_al.photon.sspi``)."""
 
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import NamedTuple
 
 import numpy as np
 
@@ -70,3 +73,20 @@ def events_from_counts(
     pix = np.repeat(np.asarray(pixel, dtype=np.int32), reps)
     bins = np.repeat(np.asarray(bin_, dtype=np.int32), reps)
     return PhotonEvents(pix, bins, np.zeros(pix.size, dtype=bool), (int(shape[0]), int(shape[1])))
+
+
+class Reconstruction(NamedTuple):
+    """What ``reconstruct`` recovers; every field is a (rows, cols) image.
+
+    depth_m: depth in metres, NaN at voids (pixels without a usable photon).
+    reflectivity: estimated signal photons per pixel (the intensity image); 0 at voids.
+    background: estimated background photons per pixel over all T bins.
+    counts: photons detected per pixel (int64).
+    valid: bool, True where depth_m is finite.
+    """
+
+    depth_m: np.ndarray
+    reflectivity: np.ndarray
+    background: np.ndarray
+    counts: np.ndarray
+    valid: np.ndarray

@@ -141,7 +141,7 @@ class ReadOptions:
     """How capture files are read (``READ_KEYS``; picoseconds where a key says ps).
 
     One set of options for every place captures are read: a dataset's ``captures:``
-    (``spl_al.data.captures.CaptureOptions`` holds them), the real-capture pictures'
+    (``spl_al.data.raw_captures.CaptureOptions`` holds them), the real-capture pictures'
     ``photon.real_capture_options`` and ``python -m spl_al.photon``'s flags.
     """
 

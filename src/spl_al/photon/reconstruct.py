@@ -25,8 +25,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from spl_al.photon.events import PhotonEvents
-from spl_al.photon.reconstruction import Reconstruction
+from spl_al.photon.events import PhotonEvents, Reconstruction
 from spl_al.photon.sensor import SensorParams
 
 ML_METHODS = ("pooled", "lmf")  # maximum likelihood: no weights needed

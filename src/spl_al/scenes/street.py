@@ -17,7 +17,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from spl_al.labels import IGNORE_INDEX
+from spl_al.label_codes import IGNORE_INDEX
 from spl_al.scenes import mesh as M
 from spl_al.scenes.objects import human
 from spl_al.scenes.raycast import Hits, Pose, ScanGrid, cast_mesh

@@ -8,7 +8,7 @@ import numpy as np
 import torch
 from torch import nn
 
-from spl_al.labels import IGNORE_INDEX
+from spl_al.label_codes import IGNORE_INDEX
 from spl_al.training.fit import check_targets
 from spl_al.training.predict import iter_forward
 

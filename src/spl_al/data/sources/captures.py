@@ -1,6 +1,6 @@
 """Source ``captures``: raw photon captures, read from their reconstructions.
 
-The workflow reconstructs the captures in ``path`` first (``spl_al.data.captures``,
+The workflow reconstructs the captures in ``path`` first (``spl_al.data.raw_captures``,
 rules ``captures_shard`` and ``captures_release``) into a release-layout folder, the
 ``release_dir`` this source reads: as a ``folder`` (labels from names or class
 folders, levels from the estimated MSPPP), or with ``oracle: human`` as an

@@ -31,8 +31,8 @@ from pathlib import Path
 import numpy as np
 
 from spl_al.data.dataset import Dataset
+from spl_al.label_codes import IGNORE_INDEX
 from spl_al.labeling.label_studio.brush import RLEError, rle_to_mask
-from spl_al.labels import IGNORE_INDEX
 
 
 def _load(path: Path) -> list[dict]:

@@ -69,7 +69,7 @@ def reconstruct_sspi(
     """
     import torch
 
-    from spl_al.photon.reconstruction import Reconstruction
+    from spl_al.photon.events import Reconstruction
     from spl_al.photon.sspi.weights import load_sspi
 
     rows, cols = (int(shape[0]), int(shape[1]))
