@@ -51,20 +51,52 @@ def test_to_input_rejects_bad_shapes():
         to_input(np.zeros((2, 4, 4)), np.ones((2, 4, 5), bool))
 
 
-@pytest.mark.parametrize(
-    ("task", "arch", "params", "hw"),
-    [
-        ("classification", "smallcnn", {"width": 4}, (32, 32)),
-        ("classification", "resnet18", {"width": 4}, (32, 32)),
-        ("classification", "resnet18", {"width": 4, "stem": "cifar", "blocks": (1, 1)}, (9, 11)),
-        ("segmentation", "unet", {"width": 4, "depth": 2}, (13, 19)),
-    ],
-)
-def test_models_return_logits_and_features(task, arch, params, hw):
+def _scan_grid(hw):
+    from spl_al.scenes.raycast import ScanGrid
+
+    return ScanGrid(hw, (5.0, -25.0), (-40.0, 40.0))
+
+
+# The shared model contract: every architecture registered in ARCHS has a small case
+# here (a new model adds one; test_every_registered_model_has_a_contract_case says so).
+CASES = [
+    ("classification", "smallcnn", {"width": 4}, (32, 32)),
+    ("classification", "resnet18", {"width": 4}, (32, 32)),
+    ("classification", "resnet18", {"width": 4, "stem": "cifar", "blocks": (1, 1)}, (9, 11)),
+    ("segmentation", "unet", {"width": 4, "depth": 2}, (13, 19)),
+    (
+        "segmentation",
+        "pointnet2",
+        {"n_points": 64, "centres": (16, 4), "radii_m": (2.0, 6.0), "neighbours": 8, "width": 8},
+        (8, 24),
+    ),
+]
+
+
+def test_every_registered_model_has_a_contract_case():
+    from spl_al.models import ARCHS
+
+    registered = {(task, arch) for task, archs in ARCHS.items() for arch in archs}
+    assert registered == {(task, arch) for task, arch, _, _ in CASES}
+
+
+@pytest.mark.parametrize(("task", "arch", "params", "hw"), CASES)
+def test_model_contract(task, arch, params, hw):
+    """Logits and features of the right shapes, finite; a seeded build is the same
+    model twice (``init_weights``); ``model_input`` gives what the model takes."""
+    from spl_al.models import model_input, needs_grid
+
+    if needs_grid(task, arch):
+        params = {**params, "grid": _scan_grid(hw)}
     model = build_model(task, 5, arch, seed=0, **params).eval()
-    x = to_input(np.random.default_rng(0).uniform(1, 3, (3, *hw)).astype(np.float32))
+    again = build_model(task, 5, arch, seed=0, **params).eval()
+    state, state_again = model.state_dict(), again.state_dict()
+    assert all(torch.equal(state[k], state_again[k]) for k in state)
+    depth = np.random.default_rng(0).uniform(6, 12, (3, *hw)).astype(np.float32)
+    depth[:, 0, :3] = np.nan  # a few voids
     with torch.no_grad():
-        logits, feats = model(x)
+        torch.manual_seed(0)
+        logits, feats = model(model_input(model, depth))
     assert model.task == task and model.n_classes == 5 and model.arch == arch
     if task == "classification":
         assert logits.shape == (3, 5) and feats.shape == (3, model.feature_dim)
