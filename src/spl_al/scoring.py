@@ -72,6 +72,30 @@ def _group_outputs(
     )
 
 
+def _batch_scores(needs, task, probs, pix_feats, feats, image_valid):
+    """(name, array) of every score and feature ``needs`` asks of one batch of groups,
+    from ``_group_outputs``'s probabilities, pixel features, features and validity."""
+    units_valid = None if image_valid is None else image_valid[:, 0]
+    if "entropy" in needs:
+        yield "entropy", entropy_score(probs[:, 0], units_valid)
+    if "margin" in needs:
+        yield "margin", margin_score(probs[:, 0], units_valid)
+    if "margin_inconsistency" in needs:
+        gamma, d = margin_and_inconsistency(probs, units_valid, image_valid)
+        yield "gamma", gamma
+        yield "inconsistency", d
+    if "features" in needs:
+        yield "features", feats[:, 0]
+    if "group_features" in needs:
+        yield "group_features", feats.mean(axis=1)
+    if "grad_embedding" in needs and task == "classification":
+        q, h = gradient_embedding_factors(probs[:, 0, 0], feats[:, 0])
+        yield "grad_q", q
+        yield "grad_h", h
+    elif "grad_embedding" in needs:
+        yield "grad_embedding", pixel_gradient_embedding(probs[:, 0], pix_feats[:, 0], units_valid)
+
+
 def compute_inputs(
     model: nn.Module,
     needs,
@@ -134,29 +158,8 @@ def compute_inputs(
             pixel_features=badge_pixels,
             precision=precision,
         )
-        units_valid = None if image_valid is None else image_valid[:, 0]
-        if "entropy" in needs:
-            add("entropy", entropy_score(probs[:, 0], units_valid))
-        if "margin" in needs:
-            add("margin", margin_score(probs[:, 0], units_valid))
-        if "margin_inconsistency" in needs:
-            gamma, d = margin_and_inconsistency(probs, units_valid, image_valid)
-            add("gamma", gamma)
-            add("inconsistency", d)
-        if "features" in needs:
-            add("features", feats[:, 0])
-        if "group_features" in needs:
-            add("group_features", feats.mean(axis=1))
-        if "grad_embedding" in needs:
-            if task == "classification":
-                q, h = gradient_embedding_factors(probs[:, 0, 0], feats[:, 0])
-                add("grad_q", q)
-                add("grad_h", h)
-            else:
-                add(
-                    "grad_embedding",
-                    pixel_gradient_embedding(probs[:, 0], pix_feats[:, 0], units_valid),
-                )
+        for name, value in _batch_scores(needs, task, probs, pix_feats, feats, image_valid):
+            add(name, value)
     if "labeled_features" in needs:
         dim = getattr(model, "feature_dim", 0)
         parts["labeled_features"] = [np.zeros((0, dim), dtype=np.float32)]

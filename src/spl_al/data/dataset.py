@@ -174,6 +174,11 @@ class Dataset:
         if not np.isin(self.level, (*LEVELS, "unknown")).all():
             raise ValueError(f"level values must be in {(*LEVELS, 'unknown')}.")
         self._check_labels(n, h, w)
+        self._check_scene_fields(n, h, w)
+
+    def _check_scene_fields(self, n: int, h: int, w: int) -> None:
+        """The optional per-pixel fields (clean depth, reflectances, object masks) and the
+        variants: each as float32 / bool of its documented shape, or a ValueError."""
         for name in ("clean_depth_m", "reflectance", "clean_reflectance"):
             value = getattr(self, name)
             if value is not None:

@@ -67,19 +67,7 @@ def load_unlabeled_folder(
     files = list_files(root)
     if not files:
         raise ValueError(f"{root}: no .npz/.npy/.png depth files found.")
-    images, levels, msppp, sbr = [], [], [], []
-    report = {"void_pixels_made": 0}
-    for path in files:
-        arrays = read_arrays(path, {"depth": depth_key}, ("depth",))
-        scale = 1.0 if path.suffix.lower() == ".png" else depth_scale
-        depth, bad = mask_unusable_depth(
-            as_image(arrays["depth"], path, depth_key) * scale, sensor.max_depth_m
-        )
-        report["void_pixels_made"] += bad["nonfinite"] + bad["negative"] + bad["beyond_reach"]
-        images.append(depth)
-        levels.append(str(arrays["level"]) if "level" in arrays else "unknown")
-        msppp.append(float(arrays["msppp"]) if "msppp" in arrays else np.nan)
-        sbr.append(float(arrays["sbr"]) if "sbr" in arrays else np.nan)
+    images, levels, msppp, sbr, report = _read_files(files, depth_key, depth_scale, sensor)
     shapes = sorted({im.shape for im in images})
     if image_shape is None and len(shapes) > 1:
         raise ValueError(f"{root}: images have different shapes {shapes}; set image_shape (H, W).")
@@ -94,37 +82,10 @@ def load_unlabeled_folder(
         labels = np.full(n, UNKNOWN_CLASS, dtype=np.int64)
     if seed_labels is not None:
         seed_labels = Path(seed_labels)
-        rows, header = read_rows(seed_labels)
-        column = "mask" if task == "segmentation" else "label"
-        if "file" not in header or column not in header:
-            raise ValueError(
-                f"{seed_labels}: needs the columns 'file' and '{column}' (and optionally "
-                f"'split'); found {', '.join(header) or 'none'}."
-            )
-        index = {name: k for k, name in enumerate(names)}
-        for line, row in rows:
-            name = (row.get("file") or "").strip()
-            if name not in index:
-                raise ValueError(f"{seed_labels} line {line}: file {name!r} is not in {root}.")
-            where = (row.get("split") or "train").strip().lower() or "train"
-            if where not in ("train", "test"):
-                raise ValueError(
-                    f"{seed_labels} line {line}: split {where!r}; expected train, test or empty."
-                )
-            if where != "test":
-                continue
-            k = index[name]
-            if split[k] == "test":
-                raise ValueError(f"{seed_labels} line {line}: file {name!r} is listed twice.")
-            split[k] = "test"
-            value = (row.get(column) or "").strip()
-            if task == "segmentation":
-                probe = Dataset(
-                    task, classes, depth[:1], labels[:1], ["test"], [np.nan], [np.nan], ["unknown"]
-                )
-                labels[k] = read_mask(seed_labels, line, value, probe)
-            else:
-                labels[k] = class_index(seed_labels, line, name, value, classes)
+        probe = Dataset(
+            task, classes, depth[:1], labels[:1], ["test"], [np.nan], [np.nan], ["unknown"]
+        )
+        _mark_test_rows(seed_labels, root, names, probe, split=split, labels=labels)
     bad_levels = sorted(set(levels) - {*LEVELS, "unknown"})
     if bad_levels:
         raise ValueError(f"{root}: files hold levels {bad_levels}; expected one of {LEVELS}.")
@@ -150,3 +111,57 @@ def load_unlabeled_folder(
             "load_report": report,
         },
     )
+
+
+def _read_files(files, depth_key: str, depth_scale: float, sensor: SensorParams):
+    """Each file's depth in metres (unusable pixels made voids) and its level, MSPPP and
+    SBR when it names them; with a report of the voids made."""
+    images, levels, msppp, sbr = [], [], [], []
+    report = {"void_pixels_made": 0}
+    for path in files:
+        arrays = read_arrays(path, {"depth": depth_key}, ("depth",))
+        scale = 1.0 if path.suffix.lower() == ".png" else depth_scale
+        depth, bad = mask_unusable_depth(
+            as_image(arrays["depth"], path, depth_key) * scale, sensor.max_depth_m
+        )
+        report["void_pixels_made"] += bad["nonfinite"] + bad["negative"] + bad["beyond_reach"]
+        images.append(depth)
+        levels.append(str(arrays["level"]) if "level" in arrays else "unknown")
+        msppp.append(float(arrays["msppp"]) if "msppp" in arrays else np.nan)
+        sbr.append(float(arrays["sbr"]) if "sbr" in arrays else np.nan)
+    return images, levels, msppp, sbr, report
+
+
+def _mark_test_rows(seed_labels: Path, root, names, probe: Dataset, *, split, labels) -> None:
+    """The ``test`` rows of ``seed_labels``: their files' ``split`` set to "test" and
+    their labels (or masks, checked against ``probe``'s classes and shape) written into
+    ``labels``, both in place; ``names``: the pool's files relative to ``root``."""
+    task, classes = probe.task, probe.classes
+    rows, header = read_rows(seed_labels)
+    column = "mask" if task == "segmentation" else "label"
+    if "file" not in header or column not in header:
+        raise ValueError(
+            f"{seed_labels}: needs the columns 'file' and '{column}' (and optionally "
+            f"'split'); found {', '.join(header) or 'none'}."
+        )
+    index = {name: k for k, name in enumerate(names)}
+    for line, row in rows:
+        name = (row.get("file") or "").strip()
+        if name not in index:
+            raise ValueError(f"{seed_labels} line {line}: file {name!r} is not in {root}.")
+        where = (row.get("split") or "train").strip().lower() or "train"
+        if where not in ("train", "test"):
+            raise ValueError(
+                f"{seed_labels} line {line}: split {where!r}; expected train, test or empty."
+            )
+        if where != "test":
+            continue
+        k = index[name]
+        if split[k] == "test":
+            raise ValueError(f"{seed_labels} line {line}: file {name!r} is listed twice.")
+        split[k] = "test"
+        value = (row.get(column) or "").strip()
+        if task == "segmentation":
+            labels[k] = read_mask(seed_labels, line, value, probe)
+        else:
+            labels[k] = class_index(seed_labels, line, name, value, classes)

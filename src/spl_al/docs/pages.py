@@ -342,30 +342,7 @@ def results_block(
             table = _md_table(results, dataset, name)
             if table:
                 lines += [f"### {dataset}: {title[:1].lower()}{title[1:]}", "", table, ""]
-        scale = 100.0
-        budget = _rows(results / dataset / "tables" / "budget.csv")
-        if budget:
-            scale = _num(budget[0].get("scale", 100))
-        methods = summary.get("methods", {})
-        if methods:
-            lines += [
-                f"### {dataset}: area under the budget curve over the query rounds",
-                "",
-                "| method | rounds | AUBC [95% CI] | seeds | final mean ± std |",
-                "|:---|:---|---:|---:|---:|",
-            ]
-            names = {r["method"]: r["row"] for r in budget}
-            for method, entry in methods.items():
-                final = (
-                    f"{_num(entry.get('final_mean')) * scale:.1f} ± "
-                    f"{_num(entry.get('final_std')) * scale:.1f}"
-                )
-                span = (entry.get("aubc") or {}).get("span", "")
-                lines.append(
-                    f"| {names.get(method, method)} | {span} | {_aubc(summary, method, scale)} | "
-                    f"{entry.get('n_seeds', '')} | {final} |"
-                )
-            lines.append("")
+        lines += _aubc_table(results, dataset, summary)
         decomposition = _md_table(results, dataset, "decomposition")
         if decomposition and not decomposition.startswith("**No decomposition"):
             lines += [f"### {dataset}: what DUIS's gain is made of", "", decomposition, ""]
@@ -382,6 +359,36 @@ def results_block(
             if robustness:
                 lines += [*robustness, ""]
     return "\n".join(lines).rstrip()
+
+
+def _aubc_table(results: Path, dataset: str, summary: dict) -> list[str]:
+    """The lines of a dataset's AUBC table (each method's range, AUBC with its interval,
+    seeds and final mean): none when the summary names no method."""
+    methods = summary.get("methods", {})
+    if not methods:
+        return []
+    scale = 100.0
+    budget = _rows(results / dataset / "tables" / "budget.csv")
+    if budget:
+        scale = _num(budget[0].get("scale", 100))
+    lines = [
+        f"### {dataset}: area under the budget curve over the query rounds",
+        "",
+        "| method | rounds | AUBC [95% CI] | seeds | final mean ± std |",
+        "|:---|:---|---:|---:|---:|",
+    ]
+    names = {r["method"]: r["row"] for r in budget}
+    for method, entry in methods.items():
+        final = (
+            f"{_num(entry.get('final_mean')) * scale:.1f} ± "
+            f"{_num(entry.get('final_std')) * scale:.1f}"
+        )
+        span = (entry.get("aubc") or {}).get("span", "")
+        lines.append(
+            f"| {names.get(method, method)} | {span} | {_aubc(summary, method, scale)} | "
+            f"{entry.get('n_seeds', '')} | {final} |"
+        )
+    return [*lines, ""]
 
 
 DEFAULT_RESULTS_PAGE = """# Results

@@ -452,18 +452,12 @@ def train_round(
     method = MethodSpec(name=which.method, **{"params": {}, **setup["method"]})
     pool_idx = read_labeled(labeled_path)
     if initial is not None and initial.scores is not None:
-        fit = _shared_round0(initial, method, pool_idx, out)
-        if fit is not None:
-            extra = {
-                "train_images": fit["train_images"],
-                **_fit_of_record(None, fit).steps(),
-                "train_seconds": fit["train_seconds"],
-                "score_seconds": 0.0,
-                "seconds": round(time.perf_counter() - started, 3),
-                "precision": fit["precision"],
-            }
+        shared = _shared_round0(initial, method, pool_idx, out)
+        if shared is not None:
+            fit = _fit_of_record(None, shared)
+            extra = _fit_facts(fit, score_seconds=0.0, started=started)
             record = _metrics_record(
-                fit["dataset"], setup, which, pool_idx.size, fit["metrics"], extra
+                shared["dataset"], setup, which, pool_idx.size, fit.metrics, extra
             )
             write_json(record, out.record)
             return record
@@ -500,18 +494,24 @@ def train_round(
         unlabeled = np.setdiff1d(np.arange(len(dataset.train_idx)), pool_idx)
         StrategyInputs(unlabeled_idx=unlabeled, labeled_idx=pool_idx).save(out.scores)
         scored = {"unlabeled": int(unlabeled.size), "seconds": 0.0}
-    extra = {
-        "train_images": fit.train_images,
-        **fit.steps(),
-        "train_seconds": round(fit.train_seconds, 3),
-        "score_seconds": scored["seconds"],
-        "seconds": round(time.perf_counter() - started, 3),
-        "precision": fit.precision,
-    }
+    extra = _fit_facts(fit, score_seconds=scored["seconds"], started=started)
     facts = dataset_facts(dataset)
     record = _metrics_record(facts, setup, which, pool_idx.size, fit.metrics, extra)
     write_json(record, out.record)
     return record
+
+
+def _fit_facts(fit: Fit, *, score_seconds: float, started: float) -> dict:
+    """What a round's metrics record holds of its fit: training images, optimiser steps
+    and images seen, seconds (training, scoring, the whole step) and precision."""
+    return {
+        "train_images": fit.train_images,
+        **fit.steps(),
+        "train_seconds": round(fit.train_seconds, 3),
+        "score_seconds": score_seconds,
+        "seconds": round(time.perf_counter() - started, 3),
+        "precision": fit.precision,
+    }
 
 
 def _round_model(

@@ -91,75 +91,8 @@ def comparisons(
     or whose methods have no records, give no rows.
     """
     d = one_dataset(df, dataset)
-    rows: list[dict] = []
-
-    budget = experiments.get("budget")
-    if budget:
-        methods = list(budget["methods"])
-        rounds = sorted(r for r in d["round"].unique() if r < int(budget["rounds"]))
-        for r in rounds:
-            n_lab = _n_labeled(d, r)
-            ratio = d.loc[d["round"] == r, "ratio"].mean()
-            rows += _rows(
-                _values(d, methods, r),
-                methods,
-                experiment="budget",
-                point=f"round {r} ({format_ratio(ratio)})",
-                round=r,
-                n_labeled=n_lab,
-            )
-        curves = query_rounds(d[d["method"].isin(methods)], int(budget["rounds"]))
-        area = aubc_per_seed(curves).rename(columns={"aubc": "value"})
-        rows += _rows(area, methods, experiment="budget", point="AUBC", span=span_text(curves))
-
-        levels = experiments.get("levels")
-        if levels:
-            r = int(levels["round"])
-            for level in LEVELS:
-                rows += _rows(
-                    _values(d, methods, r, f"level_{level}"),
-                    methods,
-                    experiment="levels",
-                    point=f"{LEVEL_LABELS[level]} at round {r}",
-                    parameter=level,
-                    round=r,
-                    n_labeled=_n_labeled(d, r),
-                )
-
-    ablation = experiments.get("ablation")
-    if ablation:
-        r = int(ablation["round"])
-        rows += _rows(
-            _values(d, ablation["methods"], r),
-            list(ablation["methods"]),
-            experiment="ablation",
-            point=f"round {r}",
-            round=r,
-            n_labeled=_n_labeled(d, r),
-        )
-
-    sensitivity = experiments.get("sensitivity")
-    if sensitivity and sweeps:
-        for param, values in sweeps.items():
-            key = "n_variants" if param == "m" else param
-            if key not in sensitivity["rounds"]:
-                continue
-            r = int(sensitivity["rounds"][key])
-            value_of = {m: v for v, m in values.items()}
-            methods = list(value_of)
-            for row in _rows(
-                _values(d, methods, r),
-                methods,
-                experiment="sensitivity",
-                point=f"{param} at round {r}",
-                parameter=param,
-                round=r,
-                n_labeled=_n_labeled(d, r),
-            ):
-                row["value_a"] = value_of[row["method_a"]]
-                row["value_b"] = value_of[row["method_b"]]
-                rows.append(row)
-
+    rows = _budget_rows(d, experiments) + _ablation_rows(d, experiments)
+    rows += _sensitivity_rows(d, experiments, sweeps)
     frame = pd.DataFrame(rows, columns=[c for c in COLUMNS if c not in ("dataset", "metric")])
     scale = float(metric_scale)
     for col in _SCALED:
@@ -173,6 +106,90 @@ def comparisons(
     frame["scale"] = scale
     frame["synthetic_standin"] = bool(d["synthetic_standin"].any())
     return frame[list(COLUMNS)]
+
+
+def _budget_rows(d: pd.DataFrame, experiments: Mapping) -> list[dict]:
+    """The budget experiment's comparisons at each round and over its AUBC, and the
+    per-level ones at the levels round."""
+    budget = experiments.get("budget")
+    if not budget:
+        return []
+    rows: list[dict] = []
+    methods = list(budget["methods"])
+    rounds = sorted(r for r in d["round"].unique() if r < int(budget["rounds"]))
+    for r in rounds:
+        n_lab = _n_labeled(d, r)
+        ratio = d.loc[d["round"] == r, "ratio"].mean()
+        rows += _rows(
+            _values(d, methods, r),
+            methods,
+            experiment="budget",
+            point=f"round {r} ({format_ratio(ratio)})",
+            round=r,
+            n_labeled=n_lab,
+        )
+    curves = query_rounds(d[d["method"].isin(methods)], int(budget["rounds"]))
+    area = aubc_per_seed(curves).rename(columns={"aubc": "value"})
+    rows += _rows(area, methods, experiment="budget", point="AUBC", span=span_text(curves))
+
+    levels = experiments.get("levels")
+    if levels:
+        r = int(levels["round"])
+        for level in LEVELS:
+            rows += _rows(
+                _values(d, methods, r, f"level_{level}"),
+                methods,
+                experiment="levels",
+                point=f"{LEVEL_LABELS[level]} at round {r}",
+                parameter=level,
+                round=r,
+                n_labeled=_n_labeled(d, r),
+            )
+    return rows
+
+
+def _ablation_rows(d: pd.DataFrame, experiments: Mapping) -> list[dict]:
+    """The ablation's comparisons at its round."""
+    ablation = experiments.get("ablation")
+    if not ablation:
+        return []
+    r = int(ablation["round"])
+    return _rows(
+        _values(d, ablation["methods"], r),
+        list(ablation["methods"]),
+        experiment="ablation",
+        point=f"round {r}",
+        round=r,
+        n_labeled=_n_labeled(d, r),
+    )
+
+
+def _sensitivity_rows(d: pd.DataFrame, experiments: Mapping, sweeps: Mapping | None) -> list:
+    """Each swept parameter's comparisons between its values, at the sweep's round."""
+    sensitivity = experiments.get("sensitivity")
+    if not (sensitivity and sweeps):
+        return []
+    rows: list[dict] = []
+    for param, values in sweeps.items():
+        key = "n_variants" if param == "m" else param
+        if key not in sensitivity["rounds"]:
+            continue
+        r = int(sensitivity["rounds"][key])
+        value_of = {m: v for v, m in values.items()}
+        methods = list(value_of)
+        for row in _rows(
+            _values(d, methods, r),
+            methods,
+            experiment="sensitivity",
+            point=f"{param} at round {r}",
+            parameter=param,
+            round=r,
+            n_labeled=_n_labeled(d, r),
+        ):
+            row["value_a"] = value_of[row["method_a"]]
+            row["value_b"] = value_of[row["method_b"]]
+            rows.append(row)
+    return rows
 
 
 def _num(x, fmt: str = "+.1f") -> str:

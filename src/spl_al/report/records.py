@@ -123,16 +123,7 @@ def validate_record(record, where: str = "record") -> dict:
     per_level = record.get("per_level") or {}
     if not isinstance(per_level, Mapping):
         raise bad("per_level", "an object mapping MSPPP level to a metric")
-    for level, level_value in per_level.items():
-        if level not in LEVELS:
-            raise ValueError(
-                f"{where}: key 'per_level' has level {level!r}; expected one of {list(LEVELS)}."
-            )
-        if not _unit_interval(level_value):
-            raise ValueError(
-                f"{where}: key 'per_level' value for {level!r} must be a number in [0, 1], "
-                f"got {level_value!r}."
-            )
+    _check_per_level(per_level, where)
 
     return {
         "dataset": record["dataset"],
@@ -155,6 +146,21 @@ def validate_record(record, where: str = "record") -> dict:
         **{key: float(v) if v is not None else math.nan for key, v in counts.items()},
         "source": where,
     }
+
+
+def _check_per_level(per_level: Mapping, where: str) -> None:
+    """A ValueError naming ``where`` unless every key is an MSPPP level and every value
+    a metric in [0, 1]."""
+    for level, level_value in per_level.items():
+        if level not in LEVELS:
+            raise ValueError(
+                f"{where}: key 'per_level' has level {level!r}; expected one of {list(LEVELS)}."
+            )
+        if not _unit_interval(level_value):
+            raise ValueError(
+                f"{where}: key 'per_level' value for {level!r} must be a number in [0, 1], "
+                f"got {level_value!r}."
+            )
 
 
 def _frame(rows: list[dict]) -> pd.DataFrame:

@@ -327,37 +327,46 @@ def train(
     )
     step_fn = _Step(model, opt, LossScaler(precision, dev), precision, dev, class_weight)
     model.train()
-    start = time.perf_counter()
     try:
         with _seeded_global_rng(seed, dev), deterministic_algorithms():
-            step = 0
-            for epoch in range(1, schedule.n_epochs + 1):
-                perm = augment.permutation(len(depth_m))
-                stats = _EpochStats(dev)
-                for b in range(schedule.per_epoch):
-                    if step >= schedule.total:
-                        break
-                    lr = schedule.lr(step)
-                    opt.param_groups[0]["lr"] = lr
-                    idx = perm[b * schedule.batch : (b + 1) * schedule.batch]
-                    xb, yb, soft = augment.batch(x_all, y_all, idx)
-                    stats.add(*step_fn(xb, yb, soft))
-                    step += 1
-                last = epoch == schedule.n_epochs
-                if cfg.log_every and (epoch % cfg.log_every == 0 or epoch == 1 or last):
-                    elapsed = time.perf_counter() - start
-                    progress.line(
-                        f"epoch {epoch}/{schedule.n_epochs} step {step}/{schedule.total} "
-                        f"{stats.text()} lr {lr:.4g} {elapsed:.1f}s "
-                        f"({step * schedule.batch / max(elapsed, 1e-9):.0f} img/s)"
-                    )
-        progress.line(f"done in {time.perf_counter() - start:.1f}s")
+            _run_schedule(schedule, augment, step_fn, (x_all, y_all), progress, cfg.log_every)
     finally:
         progress.close()
     model.eval()
     if cfg.channels_last:
         model.to(memory_format=torch.contiguous_format)
     return model
+
+
+def _run_schedule(schedule, augment, step_fn, data, progress, log_every: int) -> None:
+    """Every step of ``schedule``: each epoch a fresh permutation of the images, batches
+    from ``augment``, one ``step_fn`` per batch at the schedule's learning rate; a
+    progress line every ``log_every`` epochs (and the first and last)."""
+    x_all, y_all = data
+    opt = step_fn.opt
+    start = time.perf_counter()
+    step = 0
+    for epoch in range(1, schedule.n_epochs + 1):
+        perm = augment.permutation(len(x_all))
+        stats = _EpochStats(step_fn.dev)
+        for b in range(schedule.per_epoch):
+            if step >= schedule.total:
+                break
+            lr = schedule.lr(step)
+            opt.param_groups[0]["lr"] = lr
+            idx = perm[b * schedule.batch : (b + 1) * schedule.batch]
+            xb, yb, soft = augment.batch(x_all, y_all, idx)
+            stats.add(*step_fn(xb, yb, soft))
+            step += 1
+        last = epoch == schedule.n_epochs
+        if log_every and (epoch % log_every == 0 or epoch == 1 or last):
+            elapsed = time.perf_counter() - start
+            progress.line(
+                f"epoch {epoch}/{schedule.n_epochs} step {step}/{schedule.total} "
+                f"{stats.text()} lr {lr:.4g} {elapsed:.1f}s "
+                f"({step * schedule.batch / max(elapsed, 1e-9):.0f} img/s)"
+            )
+    progress.line(f"done in {time.perf_counter() - start:.1f}s")
 
 
 def _check_inputs(model, depth_m: np.ndarray, targets, cfg: TrainConfig, groups) -> np.ndarray:
