@@ -144,19 +144,19 @@ def learner_score(
     """Accuracy (mIoU) on the observed images of samples ``held_out`` of the configured
     model trained on samples ``labeled`` (with their variants when ``variants``), as a
     pipeline round trains it."""
-    from spl_al.experiment.round_steps import model_for
-    from spl_al.training import TrainConfig, evaluate, train
+    from spl_al.experiment.round_steps import model_for, train_groups
+    from spl_al.training import evaluate
 
-    m = dataset.n_variants if variants else 0
-    depth, valid = dataset.groups(labeled, n_variants=m)
-    images = depth.reshape(-1, *depth.shape[2:])
-    targets = np.repeat(dataset.labels[labeled], depth.shape[1], axis=0)
-    model = model_for(dataset, model_cfg)
-    fit = TrainConfig.from_dict({**fit_cfg, "log_every": 0})
-    model = train(
-        model, images, valid.reshape(images.shape), targets, fit, seed=seed, log=_Null(),
-        groups=len(labeled),
-    )  # fmt: skip
+    model, fit, _ = train_groups(
+        dataset,
+        labeled,
+        given=dataset.labels[labeled],
+        model=model_for(dataset, model_cfg),
+        fit={**fit_cfg, "log_every": 0},
+        n_variants=dataset.n_variants if variants else 0,
+        seed=seed,
+        log=_Null(),
+    )
     val = np.asarray(held_out)
     metrics = evaluate(
         model,

@@ -47,28 +47,31 @@ def sequence_scores(
 ) -> tuple[list[float], float]:
     """Validation scores (%) of one random-sampling sequence, and its seconds: every
     round trained cold, or (``warm``) rounds >= 1 fine-tuned with those fit fields."""
-    from spl_al.experiment.round_steps import model_for
-    from spl_al.training import TrainConfig, evaluate, train
+    from spl_al.experiment.jobs import Compute
+    from spl_al.experiment.round_steps import model_for, train_groups
+    from spl_al.training import evaluate
 
     fit_idx, val_idx = tuning_split(data)
     order = np.random.default_rng(seed).permutation(fit_idx)
-    m = data.n_variants if variants else 0
     model, scores, started = None, [], time.process_time()
     for r, n in enumerate(counts):
         labeled = order[:n]
-        depth, valid = data.groups(labeled, n_variants=m)
-        images = depth.reshape(-1, *depth.shape[2:])
-        targets = np.repeat(data.labels[labeled], depth.shape[1], axis=0)
-        fit = {**fit_cfg, "log_every": 0, "num_threads": 1}
+        fit = {**fit_cfg, "log_every": 0}
         if warm is not None and r > 0:
             fit = {**fit, **warm, "from_scratch": False}
         else:
             model = model_for(data, model_cfg)
-        cfg = TrainConfig.from_dict(fit)
-        model = train(
-            model.train(), images, valid.reshape(images.shape), targets, cfg,
-            seed=1000 * seed + r, log=io.StringIO(), groups=len(labeled),
-        )  # fmt: skip
+        model, cfg, _ = train_groups(
+            data,
+            labeled,
+            given=data.labels[labeled],
+            model=model.train(),
+            fit=fit,
+            n_variants=data.n_variants if variants else 0,
+            seed=1000 * seed + r,
+            compute=Compute(threads=1),
+            log=io.StringIO(),
+        )
         metrics = evaluate(
             model, data.depth_m[val_idx], data.valid[val_idx], data.labels[val_idx],
             precision=cfg.precision,

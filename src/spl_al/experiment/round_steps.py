@@ -123,6 +123,45 @@ class Fit:
         }
 
 
+def train_groups(
+    dataset,
+    samples,
+    *,
+    given,
+    model,
+    fit: dict,
+    n_variants: int,
+    seed: int,
+    compute: Compute = LOCAL,
+    log=None,
+):
+    """Train ``model`` on the groups of dataset samples ``samples`` as a round trains:
+    each group's observed image and first ``n_variants`` variants, all with the group's
+    label or mask (``given``, one per sample). ``fit``: TrainConfig fields, with
+    ``compute``'s threads and precision. Returns (the model, its TrainConfig, the
+    number of training images)."""
+    from spl_al.training import TrainConfig, train
+
+    cfg = TrainConfig.from_dict(
+        {**fit, "num_threads": compute.threads, "precision": compute.precision}
+    )
+    depth, valid = dataset.groups(samples, n_variants=n_variants)
+    targets = np.repeat(given, depth.shape[1], axis=0)
+    images = depth.reshape(-1, *depth.shape[2:])
+    model = train(
+        model,
+        images,
+        valid.reshape(images.shape),
+        targets,
+        cfg,
+        seed=seed,
+        device=compute.device,
+        log=log,
+        groups=len(samples),
+    )
+    return model, cfg, int(images.shape[0])
+
+
 def fit_and_evaluate(
     dataset,
     pool_idx,
@@ -146,7 +185,7 @@ def fit_and_evaluate(
     starts from them with ``fit`` updated by ``train_setup["warm_start"]`` (fewer
     steps), else from fresh weights.
     """
-    from spl_al.training import TrainConfig, evaluate, train
+    from spl_al.training import evaluate
 
     started = time.perf_counter()
     model = (
@@ -157,22 +196,16 @@ def fit_and_evaluate(
     fit = train_setup.get("fit", {})
     if warm_from is not None:
         fit = {**fit, **(train_setup.get("warm_start") or {}), "from_scratch": False}
-    cfg = TrainConfig.from_dict(
-        {**fit, "num_threads": compute.threads, "precision": compute.precision}
-    )
-    depth, valid = dataset.groups(dataset.train_idx[pool_idx], n_variants=n_variants)
-    targets = np.repeat(given, depth.shape[1], axis=0)
-    images = depth.reshape(-1, *depth.shape[2:])
-    model = train(
-        model,
-        images,
-        valid.reshape(images.shape),
-        targets,
-        cfg,
+    model, cfg, n = train_groups(
+        dataset,
+        dataset.train_idx[pool_idx],
+        given=given,
+        model=model,
+        fit=fit,
+        n_variants=n_variants,
         seed=step_seed(seed, round_, _TRAIN_STREAM),
-        device=compute.device,
+        compute=compute,
         log=log,
-        groups=len(pool_idx),
     )
     train_seconds = time.perf_counter() - started
     test = dataset.test_idx
@@ -187,7 +220,7 @@ def fit_and_evaluate(
         batch_size=cfg.eval_batch_size,
         precision=compute.precision,
     )
-    n, groups = int(images.shape[0]), len(pool_idx)
+    groups = len(pool_idx)
     return Fit(
         model,
         metrics,
