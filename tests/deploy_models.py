@@ -62,9 +62,9 @@ def make_round(folder: Path, task: str, model_cfg: dict | None = None) -> Path:
     card = build_card(
         folder / "model.pt",
         folder / "dataset.npz",
-        folder / "labeled.json",
-        folder / "metrics.json",
-        facts,
+        labeled_path=folder / "labeled.json",
+        metrics_path=folder / "metrics.json",
+        facts=facts,
     )
     write_card(card, card_path(folder / "model.pt"))
     return folder / "model.pt"

@@ -88,7 +88,9 @@ def test_projection_counts_resnet18_flops_like_its_known_cost():
 
     config = projection.merged_config([projection.ROOT / "config" / "paper.yaml"])
     task, model, _, _, shape, n_classes = projection.model_case(config, "real_cls")
-    train, forward = projection.flops_per_image(task, model, shape, n_classes, batch=2)
+    train, forward = projection.flops_per_image(
+        task, model, shape=shape, n_classes=n_classes, batch=2
+    )
     assert 0.25e9 < forward < 0.31e9
     assert 2.8 < train / forward < 3.2
 

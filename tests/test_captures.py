@@ -33,7 +33,7 @@ def folder(tmp_path_factory):
             if j % 2:
                 write_cube_npz(root / f"class{c}" / f"f{j}.npz", events, SENSOR)
             else:
-                write_timestamps_mat(root / f"class{c}" / f"f{j}.mat", events, 80)
+                write_timestamps_mat(root / f"class{c}" / f"f{j}.mat", events, bin_width_ps=80)
     (root / "notes.txt").write_text("not a capture")
     return root
 
@@ -53,7 +53,7 @@ def test_folder_to_release_layout_with_levels(folder, tmp_path):
     n = shard_count(options, len(files))
     shards = [tmp_path / f"shard{k}.npz" for k in range(n)]
     for k, path in enumerate(shards):
-        reconstruct_shard(folder, shard_of(files, n, k), path, options)
+        reconstruct_shard(folder, shard_of(files, n, k), out_path=path, options=options)
     release = write_release(shards, tmp_path / "release", options)
     dataset = load_folder(release, depth_key="depth_ssp", reflectance_key="intensity")
     assert dataset.classes == ["class0", "class1"] and len(dataset) == 6
@@ -70,7 +70,7 @@ def test_labels_file_places_captures_in_class_folders(folder, tmp_path):
     labels = tmp_path / "labels.csv"
     labels.write_text("file,label\n" + "".join(f"{f},{'ab'[i % 2]}\n" for i, f in enumerate(files)))
     options = CaptureOptions.from_dict({"labels_file": str(labels), "shards": 1})
-    reconstruct_shard(folder, files, tmp_path / "s.npz", options)
+    reconstruct_shard(folder, files, out_path=tmp_path / "s.npz", options=options)
     release = write_release([tmp_path / "s.npz"], tmp_path / "release", options)
     assert sorted(p.parent.name for p in release.rglob("*.npz")) == ["a"] * 3 + ["b"] * 3
     labels.write_text("file,label\nclass0/f0.mat,a\n")
@@ -93,7 +93,7 @@ def test_bad_folder_options_and_captures(folder, tmp_path):
     bad.mkdir()
     np.savez(bad / "x.npz", counts=np.zeros((8, 8, 8)), bin_width_ps=80.0)
     with pytest.raises(ValueError, match=r"x\.npz: cannot tell which axis"):
-        reconstruct_shard(bad, ["x.npz"], tmp_path / "s.npz", CaptureOptions())
+        reconstruct_shard(bad, ["x.npz"], out_path=tmp_path / "s.npz", options=CaptureOptions())
     assert not (tmp_path / "s.npz").exists()
 
 
@@ -105,14 +105,14 @@ def test_unlabeled_captures_for_a_human_oracle(tmp_path):
     scans.mkdir()
     for j, msppp in enumerate((2.0, 5.0, 10.0, 2.0, 5.0, 10.0)):
         events = simulate_capture(disc_scene(16, 16, 3.0, 6.0), msppp, 1.0, SENSOR, seed=j)
-        write_timestamps_mat(scans / f"scan{j}.mat", events, 80)
+        write_timestamps_mat(scans / f"scan{j}.mat", events, bin_width_ps=80)
     entry = {"task": "classification", "source": "captures", "oracle": "human"}
     entry |= {"path": str(scans), "classes": ["car", "wall"], "captures": {"shards": 1}}
     seed = tmp_path / "seed.csv"
     seed.write_text("file,label,split\nscan0.npz,car,test\nscan1.npz,wall,test\n")
     entry["seed_labels"] = str(seed)
     options = CaptureOptions.from_dict(entry["captures"])
-    reconstruct_shard(scans, capture_files(scans), tmp_path / "s.npz", options)
+    reconstruct_shard(scans, capture_files(scans), out_path=tmp_path / "s.npz", options=options)
     release = write_release([tmp_path / "s.npz"], tmp_path / "release", options)
     make_dataset(entry, tmp_path / "observed.npz", release_dir=release)
     dataset = Dataset.load(tmp_path / "observed.npz")
@@ -138,11 +138,11 @@ def test_labels_file_refuses_two_captures_landing_on_one_name(tmp_path):
     for sub in ("a", "b"):
         (scans / sub).mkdir(parents=True)
         events = simulate_capture(disc_scene(16, 16, 3.0, 6.0), 5.0, 1.0, SENSOR, seed=1)
-        write_timestamps_mat(scans / sub / "x.mat", events, 80)
+        write_timestamps_mat(scans / sub / "x.mat", events, bin_width_ps=80)
     labels = tmp_path / "labels.csv"
     labels.write_text("file,label\na/x.mat,car\nb/x.mat,car\n")
     options = CaptureOptions.from_dict({"labels_file": str(labels), "shards": 1})
-    reconstruct_shard(scans, capture_files(scans), tmp_path / "s.npz", options)
+    reconstruct_shard(scans, capture_files(scans), out_path=tmp_path / "s.npz", options=options)
     with pytest.raises(ValueError, match=r"captures a/x.mat and b/x.mat would both be car/x.npz"):
         write_release([tmp_path / "s.npz"], tmp_path / "release", options)
     assert not (tmp_path / "release").exists()

@@ -36,7 +36,7 @@ def folder(tmp_path_factory):
     np.savez(root / "bare.npz", counts=cube)
     write_cube_npz(root / "timed.npz", events, SENSOR)
     write_cube_h5(root / "timed_h5.h5", events, SENSOR)
-    write_timestamps_mat(root / "stamps.mat", events, 80)
+    write_timestamps_mat(root / "stamps.mat", events, bin_width_ps=80)
     (root / "notes.txt").write_text("not a capture")
     (root / ".hidden").write_text("")
     return root
@@ -114,7 +114,7 @@ def test_the_picture_command_reads_a_npy_cube_with_the_configured_options(folder
 def test_a_captures_dataset_reads_npy_and_npz_cubes(folder, tmp_path):
     options = CaptureOptions.from_dict({"bin_width_ps": 80, "shards": 1})
     files = ["bare.npz", "plain.npy", "timed_h5.h5"]
-    assert reconstruct_shard(folder, files, tmp_path / "s.npz", options) == 3
+    assert reconstruct_shard(folder, files, out_path=tmp_path / "s.npz", options=options) == 3
 
 
 def test_the_ugv45m_folder_is_pictured_and_its_readme_named(ugv45m_dir):

@@ -59,7 +59,11 @@ def test_levels_are_balanced_per_class_and_split():
     labels = np.repeat(np.arange(4), 30)
     split = np.where(np.arange(120) % 10 < 3, "test", "train")
     msppp, _, level = assign_conditions(
-        labels, split, {"high": 8, "low": (1, 3)}, [0.5, 2], np.random.default_rng(0)
+        labels,
+        split,
+        levels={"high": 8, "low": (1, 3)},
+        sbr_values=[0.5, 2],
+        rng=np.random.default_rng(0),
     )
     for s in ("train", "test"):
         for group in [labels == c for c in range(4)] + [np.ones(120, bool)]:
@@ -93,9 +97,9 @@ def test_observed_images_follow_the_photon_budget():
         n_per_class=3, image_shape=(24, 24), classes=["bin", "human"], workers=1
     )
     clean, refl = d.clean_depth_m, d.clean_reflectance
-    high, _ = observe(clean, refl, 10.0, 5.0, sensor=d.sensor, seed=0)
-    sparse, _ = observe(clean, refl, 1.0, 5.0, sensor=d.sensor, seed=0)
-    noisy, _ = observe(clean, refl, 1.0, 0.2, sensor=d.sensor, seed=0)
+    high, _ = observe(clean, refl, msppp=10.0, sbr=5.0, sensor=d.sensor, seed=0)
+    sparse, _ = observe(clean, refl, msppp=1.0, sbr=5.0, sensor=d.sensor, seed=0)
+    noisy, _ = observe(clean, refl, msppp=1.0, sbr=0.2, sensor=d.sensor, seed=0)
     has = np.isfinite(clean)
     # Pixels without any photon are voids: common at 1.2 photons per pixel.
     assert np.isfinite(high)[has].mean() > np.isfinite(sparse)[has].mean() + 0.1
@@ -103,7 +107,7 @@ def test_observed_images_follow_the_photon_budget():
     assert err_high < 0.05, "at 10 photons per pixel the median depth error is a few cm"
     assert err_high < np.nanmedian(np.abs(noisy - clean))
     # Reflectivity is reconstructed with the image: zero exactly at its voids.
-    _, rec_refl = observe(clean, refl, 10.0, 5.0, sensor=d.sensor, seed=0)
+    _, rec_refl = observe(clean, refl, msppp=10.0, sbr=5.0, sensor=d.sensor, seed=0)
     np.testing.assert_array_equal(rec_refl[~np.isfinite(high)], 0.0)
 
 

@@ -53,8 +53,8 @@ def test_kmeans_clustering_ignores_a_common_offset():
     seeds_shifted = kmeans_plusplus(x + OFFSET, 50, np.random.default_rng(0))
     assert np.array_equal(seeds_shifted, seeds + np.float32(OFFSET))  # the same rows
 
-    centres = kmeans(x, 50, np.random.default_rng(0))
-    centres_shifted = kmeans(x + OFFSET, 50, np.random.default_rng(0))
+    centres = kmeans(x, 50, rng=np.random.default_rng(0))
+    centres_shifted = kmeans(x + OFFSET, 50, rng=np.random.default_rng(0))
     assert np.allclose(centres_shifted - OFFSET, centres, rtol=0, atol=1e-9)
     labels = _nearest(x, centres)
     assert np.array_equal(_nearest(x + OFFSET, centres_shifted), labels)

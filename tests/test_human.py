@@ -55,7 +55,7 @@ def write_csv(path, rows, header=("sample", "file", "label")):
 
 def test_batch_lists_the_queried_samples_with_an_empty_label_column(tmp_path):
     data = dataset()
-    out = write_batch(data, [1, 3], tmp_path / "to_label", "labels/round1.csv")
+    out = write_batch(data, [1, 3], out_dir=tmp_path / "to_label", labels_file="labels/round1.csv")
     with open(out / "to_label.csv") as f:
         rows = list(csv.DictReader(f))
     assert [(r["sample"], r["label"]) for r in rows] == [("101", ""), ("103", "")]
@@ -194,7 +194,9 @@ def test_unlabeled_folder_is_a_pool_with_a_labeled_test_split(tmp_path):
 
 
 def test_segmentation_batch_proposes_mask_paths_and_lists_class_colours(tmp_path):
-    out = write_batch(dataset("segmentation"), [1], tmp_path / "to_label", "lab/round1.csv")
+    out = write_batch(
+        dataset("segmentation"), [1], out_dir=tmp_path / "to_label", labels_file="lab/round1.csv"
+    )
     with open(out / "to_label.csv") as f:
         assert list(csv.DictReader(f)) == [
             {"sample": "101", "file": "", "mask": "round1_masks/sample101.png"}

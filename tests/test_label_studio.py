@@ -86,7 +86,9 @@ def test_classification_batch_is_a_label_studio_import_with_predictions(tmp_path
     data.depth_m[3, 0, 0] = np.nan
     probs = np.full((2, len(data.classes)), 0.01)
     probs[0, 4], probs[1, 1] = 0.8, 0.6
-    out = write_batch(data, [3, 1], tmp_path / "to_label", "labels/round1.csv", probs=probs)
+    out = write_batch(
+        data, [3, 1], out_dir=tmp_path / "to_label", labels_file="labels/round1.csv", probs=probs
+    )
     config = ET.parse(out / "label_studio.xml").getroot()
     choices = config.find("Choices")
     assert (choices.get("name"), choices.get("toName")) == ("label", "image")
@@ -102,14 +104,16 @@ def test_classification_batch_is_a_label_studio_import_with_predictions(tmp_path
     assert tasks[1]["predictions"][0]["result"][0]["value"] == {"choices": [data.classes[1]]}
     assert "labels/round1.json" in (out / "README.txt").read_text()
 
-    plain = write_batch(data, [3], tmp_path / "initial", "labels/initial.csv")
+    plain = write_batch(data, [3], out_dir=tmp_path / "initial", labels_file="labels/initial.csv")
     assert "predictions" not in json.loads((plain / "label_studio.json").read_text())[0]
 
 
 def test_segmentation_import_has_class_colours_and_predicted_brush_masks(tmp_path):
     data = segmentation_dataset()
     probs = probabilities(data, SEG_POOL)
-    out = write_batch(data, SEG_POOL, tmp_path / "to_label", "round1.csv", probs=probs)
+    out = write_batch(
+        data, SEG_POOL, out_dir=tmp_path / "to_label", labels_file="round1.csv", probs=probs
+    )
     brush = ET.parse(out / "label_studio.xml").getroot().find("BrushLabels")
     colours = [line.split(",") for line in (out / "classes.csv").read_text().splitlines()[1:4]]
     assert [(lab.get("value"), lab.get("background")) for lab in brush] == [

@@ -172,7 +172,7 @@ def test_non_numeric_cell_names_the_cell(events, tmp_path):
 
 
 def test_times_outside_the_gate(events, tmp_path):
-    path = write_timestamps_mat(tmp_path / "g.mat", events, 80, gate_ps=(0, 100 * 80))
+    path = write_timestamps_mat(tmp_path / "g.mat", events, bin_width_ps=80, gate_ps=(0, 100 * 80))
     with pytest.raises(
         ValueError, match=r"g\.mat: \d+ of \d+ arrival times in photons lie outside"
     ):

@@ -56,7 +56,7 @@ def test_ball_query_matches_brute_force(backend):
     x = _cloud()
     centres = x[:, :7] + 0.1  # near a point, but not one
     radius, k = 2.5, 6
-    got = ball_query(x, centres, radius, k, backend).numpy()
+    got = ball_query(x, centres, radius_m=radius, k=k, backend=backend).numpy()
     for b in range(len(x)):
         for s in range(centres.shape[1]):
             d = np.sqrt(((x[b].numpy() - centres[b, s].numpy()) ** 2).sum(1))
@@ -65,11 +65,11 @@ def test_ball_query_matches_brute_force(backend):
             expected = inside + [int(order[0])] * (k - len(inside))
             assert got[b, s].tolist() == expected
     # more slots than points: padded with the nearest
-    assert ball_query(x[:, :3], centres, 100.0, 5, backend).shape == (2, 7, 5)
+    assert ball_query(x[:, :3], centres, radius_m=100.0, k=5, backend=backend).shape == (2, 7, 5)
     # an empty ball: every slot is the nearest point, however far
     far = x[:, :1] + 50.0
     nearest = ((x - far) ** 2).sum(-1).argmin(-1)
-    got = ball_query(x, far, 1.0, 4, backend)
+    got = ball_query(x, far, radius_m=1.0, k=4, backend=backend)
     assert torch.equal(got, nearest[:, None, None].expand(-1, 1, 4))
 
 
@@ -177,7 +177,7 @@ def test_learns_a_toy_two_class_cloud(loss_at):
     depth, valid, labels = _toy_scenes(48, grid, seed=0)
     test_d, test_v, test_y = _toy_scenes(16, grid, seed=1)
     model = build_model("segmentation", 2, "pointnet2", grid=grid, loss_at=loss_at, **SMALL)
-    train(model, depth, valid, labels, {**FIT, "log_every": 0}, seed=1, device="cpu")
+    train(model, depth, valid, labels, cfg={**FIT, "log_every": 0}, seed=1, device="cpu")
     metrics = evaluate(model, test_d, test_v, test_y, device="cpu")
     assert metrics["pixel_accuracy"] >= 0.95, metrics
 
@@ -238,11 +238,13 @@ def test_training_is_deterministic_for_a_seed():
     states = []
     for seed in (5, 5, 6):
         model = build_model("segmentation", 2, "pointnet2", grid=grid, **SMALL)
-        states.append(train(model, depth, valid, labels, fit, seed=seed, device="cpu").state_dict())
+        states.append(
+            train(model, depth, valid, labels, cfg=fit, seed=seed, device="cpu").state_dict()
+        )
     assert all(torch.equal(states[0][k], states[1][k]) for k in states[0])
     assert not all(torch.equal(states[0][k], states[2][k]) for k in states[0])
     with pytest.raises(ValueError, match="tied to its scan grid"):
-        train(model, depth, valid, labels, {**fit, "crop_width": 0.5}, seed=0, device="cpu")
+        train(model, depth, valid, labels, cfg={**fit, "crop_width": 0.5}, seed=0, device="cpu")
 
 
 def test_fine_tuning_samples_points_from_the_training_seed_not_the_global_rng():
@@ -258,7 +260,9 @@ def test_fine_tuning_samples_points_from_the_training_seed_not_the_global_rng():
         torch.manual_seed(global_seed)  # the state a model is built in
         model = build_model("segmentation", 2, "pointnet2", grid=grid, **SMALL)
         model.load_state_dict(start)
-        states.append(train(model, depth, valid, labels, fit, seed=5, device="cpu").state_dict())
+        states.append(
+            train(model, depth, valid, labels, cfg=fit, seed=5, device="cpu").state_dict()
+        )
     assert all(torch.equal(states[0][k], states[1][k]) for k in states[0])
 
 
@@ -319,7 +323,7 @@ def test_round_trip_on_street_scans(street):
     train_idx = street.train_idx
     fit = {**FIT, "epochs": 1, "log_every": 0}
     labels = street.labels[train_idx]
-    train(model, street.depth_m[train_idx], street.valid[train_idx], labels, fit, seed=0)
+    train(model, street.depth_m[train_idx], street.valid[train_idx], labels, cfg=fit, seed=0)
     test = street.test_idx
     metrics = evaluate(model, street.depth_m[test], street.valid[test], street.labels[test])
     assert 0.0 <= metrics["miou"] <= 1.0
@@ -329,7 +333,14 @@ def test_round_trip_on_street_scans(street):
     assert pred.probs.shape == (len(test), 7, 16, 64) and pred.features.shape == (len(test), 8)
     depth, valid = street.groups(train_idx, n_variants=2)
     needs = get("duis").needs | get("badge").needs | get("coreset").needs
-    inputs = compute_inputs(model, needs, depth, valid, np.arange(3, len(train_idx)), np.arange(3))
+    inputs = compute_inputs(
+        model,
+        needs,
+        depth_m=depth,
+        valid=valid,
+        unlabeled_idx=np.arange(3, len(train_idx)),
+        labeled_idx=np.arange(3),
+    )
     n_unl = len(train_idx) - 3
     assert inputs.gamma.shape == (n_unl,) and np.isfinite(inputs.inconsistency).all()
     assert inputs.group_features.shape == (n_unl, 8) and inputs.labeled_features.shape == (3, 8)

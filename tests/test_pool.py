@@ -78,12 +78,18 @@ def _one_al_round(depth, valid, oracle, labeled, seed):
     )
     model = build_model("classification", 3, width=4)
     cfg = TrainConfig(epochs=3, batch_size=16, log_every=0)
-    train(model, d, v, t, cfg, seed=seed, device="cpu", log=io.StringIO())
+    train(model, d, v, t, cfg=cfg, seed=seed, device="cpu", log=io.StringIO())
     params = {"duis": {"n_cand": 8}, "diversity": {"n_cand": 8}, "skactiveml": {"cls": "TypiClust"}}
     built = {n: strategies.get(n, **params.get(n, {})) for n in strategies.names()}
     needs = set().union(*(s.needs for s in built.values()))
     inputs = compute_inputs(
-        model, needs, depth, valid, pool.unlabeled_idx, pool.labeled_idx, device="cpu"
+        model,
+        needs,
+        depth_m=depth,
+        valid=valid,
+        unlabeled_idx=pool.unlabeled_idx,
+        labeled_idx=pool.labeled_idx,
+        device="cpu",
     )
     return {
         name: s.select(inputs, 5, np.random.default_rng(seed)).tolist() for name, s in built.items()

@@ -36,7 +36,7 @@ def _fit(precision: str, seed: int = 0):
     depth, valid, y = shapes_groups(48, n_groups=1, seed=2)
     model = build_model("classification", 3, width=4)
     cfg = TrainConfig(**{**FAST.to_dict(), "precision": precision})
-    train(model, depth[:, 0], valid[:, 0], y, cfg, seed=seed, device="cpu", log=io.StringIO())
+    train(model, depth[:, 0], valid[:, 0], y, cfg=cfg, seed=seed, device="cpu", log=io.StringIO())
     return model, depth[:, 0], valid[:, 0], y
 
 

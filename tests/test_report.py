@@ -444,10 +444,10 @@ def test_colours_are_fixed_per_method():
 
 
 def test_plot_files_are_png_and_pdf(df, tmp_path):
-    png, pdf = plot_curves(df, tmp_path / "fig" / "c.png", tmp_path / "fig" / "c.pdf")
+    png, pdf = plot_curves(df, tmp_path / "fig" / "c.png", path_pdf=tmp_path / "fig" / "c.pdf")
     assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
     assert pdf.read_bytes()[:5] == b"%PDF-"
-    png, pdf = plot_level_curves(df, tmp_path / "l.png", tmp_path / "l.pdf")
+    png, pdf = plot_level_curves(df, tmp_path / "l.png", path_pdf=tmp_path / "l.pdf")
     assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
     assert pdf.read_bytes()[:5] == b"%PDF-"
 
@@ -502,7 +502,14 @@ def test_a_budget_table_caption_carries_the_training_notes(tmp_path):
         paths[-1].write_text(json.dumps(rec))
     experiments = {"budget": {"methods": list(VALUES), "seeds": [1, 2, 3], "rounds": 3}}
     for notes, stem in (((), "plain"), ((STEPS_BY_IMAGES_NOTE,), "images")):
-        make_table(paths, "budget", experiments, {}, tmp_path / stem, notes=notes)
+        make_table(
+            paths,
+            "budget",
+            experiments=experiments,
+            sweeps={},
+            out_stem=tmp_path / stem,
+            notes=notes,
+        )
     assert "steps_by" not in (tmp_path / "plain.md").read_text()
     md, tex = (tmp_path / "images.md").read_text(), (tmp_path / "images.tex").read_text()
     assert "seeds (train.fit.steps_by: images, so training steps scale with images" in md

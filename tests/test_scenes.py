@@ -73,7 +73,7 @@ def test_candidate_boxes_miss_nothing(monkeypatch):
 def test_plane_range_and_incidence():
     grid = ScanGrid.square_pixels((16, 16), 20.0, elevation_centre_deg=-30.0)
     pose = Pose(np.array([0.0, 0.0, 2.0]), np.eye(3))
-    hits, points = cast_plane(grid, pose, (0, 0, 0), (0, 0, 1), 0.4, label=0)
+    hits, points = cast_plane(grid, pose, point=(0, 0, 0), normal=(0, 0, 1), albedo=0.4, label=0)
     el = grid.elevation_rad[:, None]
     np.testing.assert_allclose(hits.range_m, 2.0 / np.sin(-el) * np.ones((1, 16)), rtol=1e-9)
     np.testing.assert_allclose(points[..., 2], 0.0, atol=1e-9)

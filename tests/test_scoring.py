@@ -54,7 +54,15 @@ def test_only_the_needed_parts_are_computed(cls_setup, name):
     model, depth, valid, unl, lab = cls_setup
     needs = strategies.get(name, **PARAMS.get(name, {})).needs
     counting = CountingModel(model)
-    inputs = compute_inputs(counting, needs, depth, valid, unl, lab, device="cpu")
+    inputs = compute_inputs(
+        counting,
+        needs,
+        depth_m=depth,
+        valid=valid,
+        unlabeled_idx=unl,
+        labeled_idx=lab,
+        device="cpu",
+    )
     present = {f for f in ALL_FIELDS if getattr(inputs, f) is not None}
     expected = {f for n in needs for f in NEEDS[n]} - {"grad_embedding"}  # classification: q, h
     assert present == expected
@@ -66,7 +74,16 @@ def test_only_the_needed_parts_are_computed(cls_setup, name):
 
 def test_classification_inputs_match_predict(cls_setup):
     model, depth, valid, unl, lab = cls_setup
-    inputs = compute_inputs(model, NEEDS, depth, valid, unl, lab, device="cpu", batch_size=7)
+    inputs = compute_inputs(
+        model,
+        NEEDS,
+        depth_m=depth,
+        valid=valid,
+        unlabeled_idx=unl,
+        labeled_idx=lab,
+        device="cpu",
+        batch_size=7,
+    )
     n, g = len(unl), depth.shape[1]
     pred = predict(model, depth[unl].reshape(n * g, 12, 12), valid[unl].reshape(n * g, 12, 12))
     probs = pred.probs.reshape(n, g, 1, -1)
@@ -89,7 +106,16 @@ def test_segmentation_inputs_are_per_group_and_average_observed_valid_pixels():
     depth, valid, _ = street_groups(9, n_groups=2, shape=(10, 14))
     model = build_model("segmentation", 3, width=4, depth=2, seed=0)
     unl, lab = np.array([0, 2, 3, 5, 8]), np.array([1, 4])
-    inputs = compute_inputs(model, NEEDS, depth, valid, unl, lab, device="cpu", batch_size=3)
+    inputs = compute_inputs(
+        model,
+        NEEDS,
+        depth_m=depth,
+        valid=valid,
+        unlabeled_idx=unl,
+        labeled_idx=lab,
+        device="cpu",
+        batch_size=3,
+    )
     n, hw = len(unl), 10 * 14
     pred = predict(
         model,
@@ -124,21 +150,48 @@ def test_segmentation_inputs_are_per_group_and_average_observed_valid_pixels():
 
 def test_groups_without_variants_and_bad_arguments(cls_setup):
     model, depth, valid, unl, lab = cls_setup
-    inputs = compute_inputs(model, {"margin_inconsistency"}, depth[:, :1], valid[:, :1], unl, lab)
+    inputs = compute_inputs(
+        model,
+        {"margin_inconsistency"},
+        depth_m=depth[:, :1],
+        valid=valid[:, :1],
+        unlabeled_idx=unl,
+        labeled_idx=lab,
+    )
     assert np.allclose(inputs.inconsistency, 0.0, atol=1e-7)  # G = 1: nothing to disagree with
     with pytest.raises(ValueError, match="needs"):
-        compute_inputs(model, {"probs"}, depth, valid, unl, lab)
+        compute_inputs(
+            model, {"probs"}, depth_m=depth, valid=valid, unlabeled_idx=unl, labeled_idx=lab
+        )
     with pytest.raises(ValueError, match=r"\(N, G, H, W\)"):
-        compute_inputs(model, {"entropy"}, depth[:, 0], valid[:, 0], unl, lab)
+        compute_inputs(
+            model,
+            {"entropy"},
+            depth_m=depth[:, 0],
+            valid=valid[:, 0],
+            unlabeled_idx=unl,
+            labeled_idx=lab,
+        )
     with pytest.raises(ValueError, match="overlap"):
-        compute_inputs(model, {"entropy"}, depth, valid, unl, [5])
+        compute_inputs(
+            model, {"entropy"}, depth_m=depth, valid=valid, unlabeled_idx=unl, labeled_idx=[5]
+        )
     with pytest.raises(ValueError, match="unlabeled_idx"):
-        compute_inputs(model, {"entropy"}, depth, valid, [25], lab)
+        compute_inputs(
+            model, {"entropy"}, depth_m=depth, valid=valid, unlabeled_idx=[25], labeled_idx=lab
+        )
 
 
 def test_inputs_save_and_load_atomically(tmp_path, cls_setup):
     model, depth, valid, unl, lab = cls_setup
-    inputs = compute_inputs(model, strategies.get("duis").needs, depth, valid, unl, lab)
+    inputs = compute_inputs(
+        model,
+        strategies.get("duis").needs,
+        depth_m=depth,
+        valid=valid,
+        unlabeled_idx=unl,
+        labeled_idx=lab,
+    )
     path = tmp_path / "round0" / "inputs.npz"
     inputs.save(path)
     assert [p.name for p in path.parent.iterdir()] == ["inputs.npz"]

@@ -61,7 +61,7 @@ def reconstructed_captures(root: Path, labeled: bool) -> tuple[Path, Path]:
         events = simulate_capture(disc_scene(16, 16, 3.0, 6.0), msppp, 1.0, sensor, seed=j)
         write_cube_npz(folder / f"scan{j}.npz", events, sensor)
     options = CaptureOptions.from_dict({"shards": 1})
-    reconstruct_shard(scans, capture_files(scans), root / "shard.npz", options)
+    reconstruct_shard(scans, capture_files(scans), out_path=root / "shard.npz", options=options)
     return scans, write_release([root / "shard.npz"], root / "release", options)
 
 

@@ -52,7 +52,9 @@ def at_sites(dense, coords):
 def test_submanifold_conv_equals_dense_conv_at_active_sites(seed, device):
     x = random_sparse((7, 6, 9), 3, 0.3, seed, device)
     weight, bias = random_weight(3, 4, seed + 10, device)
-    sparse = apply_rulebook(x.features, submanifold_rulebook(x), conv_weight(weight), bias)
+    sparse = apply_rulebook(
+        x.features, submanifold_rulebook(x), weight=conv_weight(weight), bias=bias
+    )
     dense = F.conv3d(x.to_dense()[None], torch_weight(weight), bias, padding=1)[0]
     assert sparse.shape == (x.coords.shape[0], 4)
     torch.testing.assert_close(sparse, at_sites(dense, x.coords), **TOL)
@@ -64,7 +66,7 @@ def test_strided_conv_equals_dense_conv_on_the_sites_it_creates(shape, seed, dev
     x = random_sparse(shape, 2, 0.15, seed, device)
     weight, bias = random_weight(2, 3, seed + 10, device)
     coords, out_shape, book, _ = strided_rulebook(x)
-    sparse = apply_rulebook(x.features, book, conv_weight(weight), bias)
+    sparse = apply_rulebook(x.features, book, weight=conv_weight(weight), bias=bias)
 
     dense = F.conv3d(x.to_dense()[None], torch_weight(weight), bias, stride=2, padding=1)[0]
     assert tuple(dense.shape[1:]) == out_shape
@@ -94,7 +96,7 @@ def test_inverse_conv_equals_transposed_conv_at_the_strided_inputs(shape, seed, 
     gen = torch.Generator().manual_seed(seed + 20)
     y = torch.randn((coords.shape[0], 3), generator=gen, dtype=torch.float64).to(device)
     weight, bias = random_weight(3, 2, seed + 30, device)
-    sparse = apply_rulebook(y, inverse, conv_weight(weight), bias)
+    sparse = apply_rulebook(y, inverse, weight=conv_weight(weight), bias=bias)
 
     y_dense = SparseTensor(coords, y, out_shape).to_dense()[None]
     pad = [d - ((m - 1) * 2 - 2 + 3) for d, m in zip(shape, out_shape, strict=True)]

@@ -162,7 +162,13 @@ def test_an_sspi_variant_shard_times_one_frame_then_writes_its_variants(
         sensor=SMALL_SENSOR,
     ).save(tmp_path / "observed.npz")
     variants = {"n": 1, "shards": 1, "seed": 0, "reconstruct_method": "sspi"}
-    make_variant_shard(tmp_path / "observed.npz", variants, 0, tmp_path / "s0.npz", fake_weights)
+    make_variant_shard(
+        tmp_path / "observed.npz",
+        variants,
+        shard=0,
+        out_path=tmp_path / "s0.npz",
+        sspi_weights=fake_weights,
+    )
     assert "this shard reconstructs 2 variants" in capsys.readouterr().out
     shard = VariantShard.load(tmp_path / "s0.npz")
     assert shard.depth_m.shape == (2, 1, 12, 16)

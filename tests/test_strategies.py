@@ -229,7 +229,7 @@ def test_kmeans_recovers_separated_blobs():
     rng = np.random.default_rng(0)
     means = np.array([[0, 0], [10, 0], [0, 10], [10, 10]], float)
     x = np.concatenate([m + rng.normal(0, 0.2, (40, 2)) for m in means])
-    centres = kmeans(x, 4, np.random.default_rng(1))
+    centres = kmeans(x, 4, rng=np.random.default_rng(1))
     got = centres[np.lexsort(np.round(centres).T[::-1])]
     assert np.allclose(got, means[np.lexsort(means.T[::-1])], atol=0.15)
 

@@ -49,7 +49,7 @@ def test_training_is_deterministic_for_a_seed():
         model = build_model("classification", 3, width=4, dropout=0.5)
         torch.manual_seed(100 + len(runs))
         before = torch.random.get_rng_state()
-        runs.append(train(model, d, v, y, FAST, seed=seed, device="cpu", log=io.StringIO()))
+        runs.append(train(model, d, v, y, cfg=FAST, seed=seed, device="cpu", log=io.StringIO()))
         assert torch.equal(torch.random.get_rng_state(), before)
     assert _same_weights(runs[0], runs[1])
     assert not _same_weights(runs[0], runs[2])
@@ -63,7 +63,7 @@ def test_classifier_learns_a_separable_task_with_variants(tmp_path):
     assert d.shape == (420, 16, 16) and np.array_equal(t, np.repeat(y[:140], 3))
     model = build_model("classification", 3, width=8)
     cfg = TrainConfig(epochs=8, batch_size=64, lr=0.05, log_every=4)
-    train(model, d, v, t, cfg, seed=0, device="cpu", log=tmp_path / "train.log")
+    train(model, d, v, t, cfg=cfg, seed=0, device="cpu", log=tmp_path / "train.log")
     lines = (tmp_path / "train.log").read_text().splitlines()
     assert lines[0].startswith("train classification") and any("epoch 8/8" in s for s in lines)
     levels = np.array(["high", "low"] * 30)
@@ -87,7 +87,7 @@ def test_segmentation_loss_ignores_invalid_pixels():
             d,
             v,
             t,
-            cfg,
+            cfg=cfg,
             seed=0,
             device="cpu",
             log=io.StringIO(),
@@ -127,7 +127,7 @@ def test_segmenter_learns_and_reports_miou(crop_width, balance):
     cfg = TrainConfig(
         epochs=30, batch_size=16, lr=0.05, log_every=0, crop_width=crop_width, balance=balance
     )
-    train(model, depth[:40, 0], valid[:40, 0], masks[:40], cfg, seed=0, device="cpu")
+    train(model, depth[:40, 0], valid[:40, 0], masks[:40], cfg=cfg, seed=0, device="cpu")
     m = evaluate(model, depth[40:, 0], valid[40:, 0], masks[40:], levels=["medium"] * 20)
     assert m["miou"] > 0.6, m
     assert m["n_pixels"] == int((masks[40:] != IGNORE_INDEX).sum())
@@ -223,16 +223,34 @@ def test_train_rejects_bad_targets():
     depth, valid, y = shapes_groups(4, n_groups=1)
     model = build_model("classification", 3, width=2)
     with pytest.raises(ValueError, match="targets"):
-        train(model, depth[:, 0], valid[:, 0], y + 3, FAST, seed=0, device="cpu", log=io.StringIO())
+        train(
+            model,
+            depth[:, 0],
+            valid[:, 0],
+            y + 3,
+            cfg=FAST,
+            seed=0,
+            device="cpu",
+            log=io.StringIO(),
+        )
     with pytest.raises(ValueError, match="targets"):
-        train(model, depth[:, 0], valid[:, 0], y[:3], FAST, seed=0, device="cpu", log=io.StringIO())
+        train(
+            model,
+            depth[:, 0],
+            valid[:, 0],
+            y[:3],
+            cfg=FAST,
+            seed=0,
+            device="cpu",
+            log=io.StringIO(),
+        )
     with pytest.raises(ValueError, match="groups must lie in"):
         train(
             model,
             depth[:, 0],
             valid[:, 0],
             y,
-            FAST,
+            cfg=FAST,
             seed=0,
             device="cpu",
             log=io.StringIO(),
@@ -270,8 +288,8 @@ def test_train_takes_the_steps_of_its_policy():
         cfg = TrainConfig(epochs=2, batch_size=2, steps_by=by, log_every=0)
         assert cfg.total_steps(12, 3) == steps
         log = io.StringIO()
-        train(build_model("classification", 3, width=2), depth[:, 0], valid[:, 0], y, cfg, seed=0,
-              device="cpu", log=log, groups=3)  # fmt: skip
+        model = build_model("classification", 3, width=2)
+        train(model, depth[:, 0], valid[:, 0], y, cfg=cfg, seed=0, device="cpu", log=log, groups=3)
         assert f", {steps} steps (" in log.getvalue()
 
 
@@ -281,7 +299,17 @@ def test_steps_per_group_counts_the_labeled_groups_not_the_images():
     for groups, steps in [(2, 10), (None, 20)]:
         log = io.StringIO()
         model = build_model("classification", 3, width=2)
-        train(model, depth[:, 0], valid[:, 0], y, cfg, seed=0, device="cpu", log=log, groups=groups)
+        train(
+            model,
+            depth[:, 0],
+            valid[:, 0],
+            y,
+            cfg=cfg,
+            seed=0,
+            device="cpu",
+            log=log,
+            groups=groups,
+        )
         assert f", {steps} steps (" in log.getvalue()
 
 
@@ -335,7 +363,7 @@ def test_column_crops_keep_each_pixel_with_its_label_and_vary_per_image():
 def test_affine_augmentation_without_rotation_or_zoom_is_the_identity():
     gen = torch.Generator().manual_seed(0)
     x, y = torch.randn(4, 2, 16, 40), torch.randint(0, 3, (4, 16, 40))
-    x2, y2 = random_affine(x, y, 0.0, 0.0, gen)
+    x2, y2 = random_affine(x, y, rotate_deg=0.0, scale=0.0, gen=gen)
     assert torch.equal(x2, x) and torch.equal(y2, y)
 
 
@@ -371,7 +399,7 @@ def test_training_with_every_augmentation_is_deterministic_and_learns():
             d,
             v,
             y[:140],
-            cfg,
+            cfg=cfg,
             seed=0,
             device="cpu",
             log=io.StringIO(),
@@ -421,7 +449,7 @@ def test_training_does_not_load_the_torch_compiler(tmp_path):
         "m = build_model('classification', 2, seed=0, width=4, stages=2)\n"
         "d = np.random.default_rng(0).uniform(1, 5, (8, 16, 16)).astype(np.float32)\n"
         "train(m, d, np.ones(d.shape, bool), np.arange(8) % 2,\n"
-        "      TrainConfig(steps=2, batch_size=4, log_every=0), seed=0)\n"
+        "      cfg=TrainConfig(steps=2, batch_size=4, log_every=0), seed=0)\n"
         "print(sorted(m for m in ('torch._dynamo', 'torch._inductor') if m in sys.modules))\n"
     )
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)

@@ -39,7 +39,7 @@ JOBS = textwrap.dedent(
         x = torch.rand(16, 32, 32).numpy() * 5  # see spl_al.training.precision: no 1x1 maps
         model = build_model("classification", 2, width=4)
         cfg = TrainConfig(epochs=2, batch_size=8, log_every=0, precision="auto")
-        train(model, x, x > 0, [0, 1] * 8, cfg, seed=1, device="cpu", log=io.StringIO())
+        train(model, x, x > 0, [0, 1] * 8, cfg=cfg, seed=1, device="cpu", log=io.StringIO())
         torch.save(model.state_dict(), path)
     """
 )

@@ -81,7 +81,7 @@ def depth_range(*images) -> tuple[float, float]:
     return 0.0, 1.0
 
 
-def show_image(ax, image, vmin, vmax, title=None, cmap=None) -> None:
+def show_image(ax, image, *, vmin, vmax, title=None, cmap=None) -> None:
     """Draw ``image`` on ``ax`` from ``vmin`` to ``vmax`` (default colours: depth), no
     ticks, pixels unsmoothed, with a small ``title``."""
     ax.imshow(image, cmap=cmap or depth_cmap(), vmin=vmin, vmax=vmax, interpolation="nearest")

@@ -30,7 +30,7 @@ def _as_indices(name: str, indices, n: int) -> np.ndarray:
 
 
 def initial_labeled_set(
-    n_train: int, size: int, seed: int, labels=None, stratified: bool = False
+    n_train: int, size: int, seed: int, *, labels=None, stratified: bool = False
 ) -> np.ndarray:
     """The round-0 labeled set of a seed: sorted indices, the same for every method.
 

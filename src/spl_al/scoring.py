@@ -48,7 +48,9 @@ def _group_outputs(
     b = len(idx)
     d = np.asarray(depth_m[idx, :n_images]).reshape(b * n_images, *depth_m.shape[2:])
     v = np.asarray(valid[idx, :n_images]).reshape(b * n_images, *depth_m.shape[2:])
-    ((_, probs, feats, vmask),) = iter_forward(model, d, v, device, len(d), precision)
+    ((_, probs, feats, vmask),) = iter_forward(
+        model, d, v, device=device, batch_size=len(d), precision=precision
+    )
     if model.task == "classification":
         return (
             probs.view(b, n_images, 1, -1).cpu().numpy(),
@@ -99,11 +101,11 @@ def _batch_scores(needs, task, probs, pix_feats, feats, image_valid):
 def compute_inputs(
     model: nn.Module,
     needs,
+    *,
     depth_m,
     valid,
     unlabeled_idx,
     labeled_idx,
-    *,
     device: str | torch.device | None = None,
     batch_size: int | None = None,
     precision: str = "fp32",

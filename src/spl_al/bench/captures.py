@@ -48,7 +48,9 @@ def _write_all(folder: Path) -> dict[str, Path]:
     fine = _events(FINE, 0.0)
     return {
         "sparse_mat": writers.write_sparse_mat(folder / "sparse.mat", coarse, COARSE),
-        "timestamps_mat (4 ps)": writers.write_timestamps_mat(folder / "ts.mat", fine, 4),
+        "timestamps_mat (4 ps)": writers.write_timestamps_mat(
+            folder / "ts.mat", fine, bin_width_ps=4
+        ),
         "cube .npz": writers.write_cube_npz(folder / "cube.npz", coarse, COARSE),
         "cube HDF5": writers.write_cube_h5(folder / "cube.h5", coarse, COARSE),
         "ptu": writers.write_ptu(folder / "scan.ptu", coarse, COARSE),

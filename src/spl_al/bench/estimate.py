@@ -182,7 +182,7 @@ def deploy_jobs(config: dict, dataset: str) -> int:
     return (len(budget["methods"]) + exports) * len(budget["seeds"])
 
 
-def estimate_dataset(config: dict, dataset: str, tmp: Path, steps: int, jobs: int = 2) -> dict:
+def estimate_dataset(config: dict, dataset: str, *, tmp: Path, steps: int, jobs: int = 2) -> dict:
     """Seconds of one dataset's jobs, by part, and its job count."""
     import torch
 
@@ -240,7 +240,7 @@ def estimate_config(config: dict, jobs: int = 2, steps: int = 30, log=print) -> 
                 log(f"{dataset}: source {entry.get('source')!r} is not estimated (its size "
                     "is known only from its files).")  # fmt: skip
                 continue
-            part = estimate_dataset(config, dataset, Path(tmp), steps, jobs)
+            part = estimate_dataset(config, dataset, tmp=Path(tmp), steps=steps, jobs=jobs)
             core = part["train_s"] + part["forward_s"] + part["data_s"]
             core += part["jobs"] * (JOB_START_S[warm] + SCHEDULER_S_PER_JOB)
             total_core += core

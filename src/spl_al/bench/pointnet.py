@@ -82,7 +82,7 @@ def _case(label: str, shape, *, params: dict, batch: int, threads: int, steps: i
         if device == "cuda":
             torch.cuda.synchronize()
         start = time.perf_counter()
-        train(model, depth, valid, labels, cfg, seed=0, device=device, log=io.StringIO())
+        train(model, depth, valid, labels, cfg=cfg, seed=0, device=device, log=io.StringIO())
         if device == "cuda":
             torch.cuda.synchronize()
         train_s = time.perf_counter() - start

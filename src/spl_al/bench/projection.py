@@ -145,7 +145,9 @@ def model_case(config: dict, dataset: str):
     return entry["task"], model, model_cfg, fit, shape, n_classes
 
 
-def flops_per_image(task: str, model, shape, n_classes: int, batch: int = 8) -> tuple[float, float]:
+def flops_per_image(
+    task: str, model, *, shape, n_classes: int, batch: int = 8
+) -> tuple[float, float]:
     """(training step FLOPs, forward FLOPs) per image, counted on a batch of ``batch``."""
     import torch
     from torch.utils.flop_counter import FlopCounterMode
@@ -153,7 +155,7 @@ def flops_per_image(task: str, model, shape, n_classes: int, batch: int = 8) -> 
     from spl_al.bench.training import random_data
     from spl_al.models import model_input
 
-    depth, valid, targets = random_data(task, shape, batch, n_classes)
+    depth, valid, targets = random_data(task, shape, n=batch, n_classes=n_classes)
     x = model_input(model, depth, valid)
     y = torch.as_tensor(targets).long()
     model.train()
@@ -210,7 +212,7 @@ def main(argv: list[str]) -> int:
             continue
         task, model, model_cfg, fit, shape, n_classes = model_case(config, dataset)
         arch = model_cfg.get("arch") or type(model).__name__
-        train_flops, fwd_flops = flops_per_image(task, model, shape, n_classes)
+        train_flops, fwd_flops = flops_per_image(task, model, shape=shape, n_classes=n_classes)
         counts = protocol_images(config, dataset)
         total = counts["train_images"] * train_flops + counts["forward_images"] * fwd_flops
         cpu_cell = "-"

@@ -75,7 +75,7 @@ def measure(fn: Callable[[], object], traced: bool = True) -> dict:
 
 
 def synthetic_pool(
-    n: int, dim: int, n_classes: int, m: int, n_labeled: int, seed: int = 0
+    n: int, dim: int, *, n_classes: int, m: int, n_labeled: int, seed: int = 0
 ) -> tuple[StrategyInputs, np.ndarray]:
     """A clustered feature pool with softmax predictions for observed image and variants.
 
@@ -108,7 +108,9 @@ def synthetic_pool(
 
 def bench_strategies(args) -> list[list[str]]:
     """Table rows of each strategy's selection time on a synthetic pool."""
-    inputs, group_probs = synthetic_pool(args.pool, args.dim, args.classes, args.m, args.labeled)
+    inputs, group_probs = synthetic_pool(
+        args.pool, args.dim, n_classes=args.classes, m=args.m, n_labeled=args.labeled
+    )
 
     def duis() -> None:
         gamma, d = margin_and_inconsistency(group_probs)
@@ -200,7 +202,7 @@ def _throughput(task: str, arch: str, shape: tuple[int, int], batch: int, steps:
     for run_steps in (2, steps):  # the first run warms up oneDNN's kernels
         cfg = TrainConfig(steps=run_steps, batch_size=batch, log_every=0)
         t0 = time.perf_counter()
-        train(model, depth, valid, y, cfg, seed=0, device="cpu", log=io.StringIO())
+        train(model, depth, valid, y, cfg=cfg, seed=0, device="cpu", log=io.StringIO())
         seconds = time.perf_counter() - t0
     return steps * batch / seconds, forward_gflop(model, (2, *shape))
 

@@ -50,7 +50,7 @@ def _cases(config: dict, paper: dict) -> list[tuple[str, str, dict, dict, tuple[
     ]  # fmt: skip
 
 
-def random_data(task: str, shape, n: int, n_classes: int, seed: int = 0):
+def random_data(task: str, shape, *, n: int, n_classes: int, seed: int = 0):
     """(depth, valid, targets) of ``n`` random images: 10% voids, random labels (or masks)."""
     import numpy as np
 
@@ -88,7 +88,7 @@ def measure(task, model_cfg, fit, *, shape, precision, threads, steps, device="c
     torch.set_num_threads(threads)
     n_classes = 11 if task == "classification" else 8
     batch = int(fit.get("batch_size", 32))
-    depth, valid, targets = random_data(task, shape, 4 * batch, n_classes)
+    depth, valid, targets = random_data(task, shape, n=4 * batch, n_classes=n_classes)
     model = case_model(task, model_cfg, shape, n_classes)
     fit = {k: v for k, v in fit.items() if k not in ("epochs", "min_steps", "steps_per_group")}
     rates = []
@@ -98,7 +98,7 @@ def measure(task, model_cfg, fit, *, shape, precision, threads, steps, device="c
         )
         sync(device)
         start = time.perf_counter()
-        train(model, depth, valid, targets, cfg, seed=0, device=device, log=io.StringIO())
+        train(model, depth, valid, targets, cfg=cfg, seed=0, device=device, log=io.StringIO())
         sync(device)
         rates.append(run_steps * batch / (time.perf_counter() - start))
     predict(

@@ -109,8 +109,8 @@ def write_digits_folder(
             observed, _ = observe_image(
                 clean,
                 albedo,
-                Condition(msppp, sbr, sensor),
-                sample_rng(seed, STREAM_OBSERVE, int(i)),
+                condition=Condition(msppp, sbr, sensor),
+                rng=sample_rng(seed, STREAM_OBSERVE, int(i)),
                 model=ObservationModel(),
             )
             arrays = {"depth_ssp": np.nan_to_num(observed, nan=0.0), "Z_true": clean}

@@ -84,7 +84,9 @@ def read_label_csv(path, dataset: Dataset, pool_indices) -> np.ndarray:
         if seg:
             labels[wanted[pool]] = read_mask(path, line, value, dataset)
         else:
-            labels[wanted[pool]] = class_index(path, line, name, value, dataset.classes)
+            labels[wanted[pool]] = class_index(
+                path, line, name=name, value=value, classes=dataset.classes
+            )
     missing = [p for p in wanted if p not in first_line]
     if missing:
         names = [_sample_key(dataset, p, key) for p in missing]
@@ -165,7 +167,7 @@ def _sample_key(dataset: Dataset, pool: int, key: str) -> str:
     return str(int(dataset.uid[i])) if key == "sample" else sample_file(dataset, i)
 
 
-def class_index(path: Path, line: int, name: str, value: str, classes: list[str]) -> int:
+def class_index(path: Path, line: int, *, name: str, value: str, classes: list[str]) -> int:
     """The index of class name ``value`` in ``classes``; an empty or unknown name is a
     ValueError naming ``path``, ``line`` and the sample ``name``."""
     if not value:

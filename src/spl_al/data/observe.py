@@ -79,7 +79,7 @@ def condition_set(
 
 
 def assign_conditions(
-    groups: np.ndarray, split: np.ndarray, levels: Mapping, sbr_values, rng: np.random.Generator
+    groups: np.ndarray, split: np.ndarray, *, levels: Mapping, sbr_values, rng: np.random.Generator
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Per-sample (msppp, sbr, level), levels balanced within every group and split.
 
@@ -241,9 +241,9 @@ def observation_of(dataset) -> tuple[ObservationModel | None, bool]:
 def observe(
     clean_depth_m: np.ndarray,
     reflectance: np.ndarray | None,
+    *,
     msppp: np.ndarray,
     sbr: np.ndarray,
-    *,
     sensor: SensorParams,
     seed: int,
     uid: np.ndarray | None = None,

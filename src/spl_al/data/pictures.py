@@ -62,9 +62,11 @@ def contact_sheet(dataset: Dataset, path, per_class: int = 4, seed: int = 0) -> 
             clean = dataset.clean_depth_m[i] if has_clean else None
             lo, hi = depth_range(clean, dataset.depth_m[i])
             if has_clean:
-                show_image(cells[0], clean, lo, hi, f"clean {np.nanmedian(clean):.3g} m")
+                show_image(
+                    cells[0], clean, vmin=lo, vmax=hi, title=f"clean {np.nanmedian(clean):.3g} m"
+                )
             obs_title = condition_title(dataset.msppp[i], dataset.sbr[i], dataset.level[i])
-            show_image(cells[-1], dataset.depth_m[i], lo, hi, obs_title)
+            show_image(cells[-1], dataset.depth_m[i], vmin=lo, vmax=hi, title=obs_title)
         axes[c, 0].set_ylabel(name, fontsize=8)
     fig.suptitle(
         f"{dataset.meta.get('source', '')} {dataset.task}: clean depth | observed SPL image "
@@ -87,19 +89,21 @@ def _segmentation_sheet(dataset: Dataset, path, n: int, rng) -> Path:
         clean = dataset.clean_depth_m[i] if has_clean else None
         lo, hi = depth_range(clean, dataset.depth_m[i])
         if has_clean:
-            show_image(axes[r, 0], clean, lo, hi, "clean depth" if r == 0 else None)
+            show_image(axes[r, 0], clean, vmin=lo, vmax=hi, title="clean depth" if r == 0 else None)
         obs = condition_title(dataset.msppp[i], dataset.sbr[i], dataset.level[i])
-        show_image(axes[r, cols - 2], dataset.depth_m[i], lo, hi, f"observed: {obs}")
+        show_image(
+            axes[r, cols - 2], dataset.depth_m[i], vmin=lo, vmax=hi, title=f"observed: {obs}"
+        )
         labels = np.where(
             dataset.labels[i] == IGNORE_INDEX, np.nan, dataset.labels[i].astype(float)
         )
         show_image(
             axes[r, cols - 1],
             labels,
-            -0.5,
-            len(dataset.classes) - 0.5,
-            "labels" if r == 0 else None,
-            cmap,
+            vmin=-0.5,
+            vmax=len(dataset.classes) - 0.5,
+            title="labels" if r == 0 else None,
+            cmap=cmap,
         )
     _legend(fig, dataset.classes, cmap)
     fig.suptitle(
@@ -149,13 +153,20 @@ def variants_sheet(dataset: Dataset, index: int, path) -> Path:
     lo, hi = depth_range(clean, dataset.depth_m[i])
     for ax, (title, img) in zip(axes, images, strict=False):
         voids = 1 - np.isfinite(img).mean()
-        show_image(ax, img, lo, hi, f"{title}, {voids:.0%} void")
+        show_image(ax, img, vmin=lo, vmax=hi, title=f"{title}, {voids:.0%} void")
     if seg:
         cmap = label_cmap(len(dataset.classes))
         labels = np.where(
             dataset.labels[i] == IGNORE_INDEX, np.nan, dataset.labels[i].astype(float)
         )
-        show_image(axes[len(images)], labels, -0.5, len(dataset.classes) - 0.5, "labels", cmap)
+        show_image(
+            axes[len(images)],
+            labels,
+            vmin=-0.5,
+            vmax=len(dataset.classes) - 0.5,
+            title="labels",
+            cmap=cmap,
+        )
         _legend(fig, dataset.classes, cmap)
     for ax in axes[n:]:
         ax.axis("off")

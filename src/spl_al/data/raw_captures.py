@@ -183,7 +183,7 @@ def shard_of(files: list[str], n_shards: int, shard: int) -> list[str]:
     return files[shard::n_shards]
 
 
-def reconstruct_shard(root, files: list[str], out_path, options: CaptureOptions, weights=None):
+def reconstruct_shard(root, files: list[str], *, out_path, options: CaptureOptions, weights=None):
     """Reconstruct ``files`` (relative to ``root``) and save them to one ``.npz``.
 
     The file holds, per frame k, ``{k}/{name}`` for every release array and ``files``,

@@ -149,7 +149,7 @@ class SynthesisProtocol:
         split_rng = sample_rng(self.seed, STREAM_SPLIT)
         split = stratified_split(groups, self.test_fraction, split_rng)
         msppp, sbr, level = assign_conditions(
-            groups, split, self.levels, self.sbr_values, split_rng
+            groups, split, levels=self.levels, sbr_values=self.sbr_values, rng=split_rng
         )
         uid = np.arange(len(groups), dtype=np.int64)
         return Draw(uid, split, msppp, sbr, level)
@@ -359,6 +359,7 @@ def _street_chunk(chunk, job: _StreetJob):
 
 def make_segmentation_dataset(
     n_samples: int = 300,
+    *,
     image_shape=(64, 256),
     elevation_deg=(8.0, -22.0),
     azimuth_deg=(-45.0, 45.0),

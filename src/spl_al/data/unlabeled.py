@@ -164,4 +164,4 @@ def _mark_test_rows(seed_labels: Path, root, names, probe: Dataset, *, split, la
         if task == "segmentation":
             labels[k] = read_mask(seed_labels, line, value, probe)
         else:
-            labels[k] = class_index(seed_labels, line, name, value, classes)
+            labels[k] = class_index(seed_labels, line, name=name, value=value, classes=classes)

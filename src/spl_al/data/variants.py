@@ -350,7 +350,7 @@ def attach_variants(dataset: Dataset, shards) -> Dataset:
 
 
 def make_variants(
-    dataset: Dataset, n_variants: int = 4, conditions=None, seed: int = 0, workers=None, **kw
+    dataset: Dataset, *, n_variants: int = 4, conditions=None, seed: int = 0, workers=None, **kw
 ) -> Dataset:
     """``attach_variants(dataset, [generate_variants(dataset, ...)])`` in one call."""
     shard = generate_variants(

@@ -191,7 +191,7 @@ def robustness_cells(records, seed: int) -> dict | None:
 
 
 def build_card(
-    model_path, dataset_path, labeled_path, metrics_path, facts: RunFacts, robustness_path=None
+    model_path, dataset_path, *, labeled_path, metrics_path, facts: RunFacts, robustness_path=None
 ) -> dict:
     """The card of one round's ``model.pt`` (files of the pipeline's round folder).
 

@@ -110,7 +110,7 @@ def compare(reference: np.ndarray, logits: np.ndarray, valid: np.ndarray) -> dic
     }
 
 
-def check_onnx(onnx_path, model, depth_m, valid, batch_size: int = 64) -> dict:
+def check_onnx(onnx_path, model, *, depth_m, valid, batch_size: int = 64) -> dict:
     """onnxruntime on ``onnx_path`` against torch on the same (n, H, W) images."""
     import onnxruntime as ort
 
@@ -177,7 +177,7 @@ def _onnx_section(out_path: Path, tmp: Path, check: dict) -> dict:
     }
 
 
-def export_onnx(model_path, out_path, dataset_path=None, card=None, log=print) -> dict:
+def export_onnx(model_path, out_path, *, dataset_path=None, card=None, log=print) -> dict:
     """Export ``model_path`` (``.pt`` with its card) to ``out_path`` (``.onnx``).
 
     Writes ``out_path`` and its card (``{stem}.card.json`` / ``.card.md``: the model's
@@ -206,7 +206,7 @@ def export_onnx(model_path, out_path, dataset_path=None, card=None, log=print) -
     tmp = Path(name)
     try:
         write_onnx(model, tmp, deployed.image_shape)
-        check = check_onnx(tmp, model, depth, valid)
+        check = check_onnx(tmp, model, depth_m=depth, valid=valid)
         log(
             f"{out_path}: onnxruntime vs torch on {check['n_samples']} test samples: max "
             f"|logit diff| {check['max_abs_logit_diff']:.3g}, argmax agreement "

@@ -90,7 +90,7 @@ def _capture_frame(path: Path, name: str, options: CaptureOptions, weights) -> F
 
 
 def read_frame(
-    path: Path, name: str, options: CaptureOptions, depth_key=RELEASE_DEPTH_KEY, weights=None
+    path: Path, name: str, *, options: CaptureOptions, depth_key=RELEASE_DEPTH_KEY, weights=None
 ) -> Frame:
     """One frame: a release-layout ``.npz`` (it holds ``depth_key``) or a raw capture."""
     if path.suffix.lower() == ".npz":
@@ -106,7 +106,10 @@ def read_frame(
 
 def read_frames(inputs, options: CaptureOptions, depth_key=RELEASE_DEPTH_KEY, weights=None):
     """Every frame of ``inputs`` (files and folders), read before anything is written."""
-    return [read_frame(p, n, options, depth_key, weights) for p, n in input_files(inputs)]
+    return [
+        read_frame(p, n, options=options, depth_key=depth_key, weights=weights)
+        for p, n in input_files(inputs)
+    ]
 
 
 def capture_options(reconstruction: dict | None, overrides: dict | None = None) -> CaptureOptions:

@@ -35,7 +35,9 @@ def reconstruct_captures(entry: dict, shard: int, out_path, sspi_weights=None) -
     every = raw_captures.capture_files(entry["path"])
     files = raw_captures.shard_of(every, raw_captures.shard_count(options, len(every)), shard)
     start = time.perf_counter()
-    n = raw_captures.reconstruct_shard(entry["path"], files, out_path, options, sspi_weights)
+    n = raw_captures.reconstruct_shard(
+        entry["path"], files, out_path=out_path, options=options, weights=sspi_weights
+    )
     return {"captures": n, "seconds": round(time.perf_counter() - start, 2)}
 
 
@@ -49,7 +51,7 @@ def release_captures(entry: dict, shard_paths, out_dir) -> dict:
 
 
 def make_variant_shard(
-    observed_path, variants: dict, shard: int, out_path, sspi_weights=None
+    observed_path, variants: dict, *, shard: int, out_path, sspi_weights=None
 ) -> dict:
     """SIV variants of one shard of the observed images (shards can run anywhere).
 

@@ -25,13 +25,20 @@ def model_card(
     from spl_al.deploy.card import RunFacts, build_card, write_card
 
     card = build_card(
-        model_path, dataset_path, labeled_path, metrics_path, RunFacts(**facts), robustness_path
+        model_path,
+        dataset_path,
+        labeled_path=labeled_path,
+        metrics_path=metrics_path,
+        facts=RunFacts(**facts),
+        robustness_path=robustness_path,
     )
     write_card(card, out_path)
     return card
 
 
-def export_model(model_path, card_path, dataset_path, out_path, compute: Compute = LOCAL) -> dict:
+def export_model(
+    model_path, card_path, *, dataset_path, out_path, compute: Compute = LOCAL
+) -> dict:
     """Export ``model_path`` (its card at ``card_path``) to ``out_path`` (.onnx), checked
     on ``dataset_path``'s test split; the exported card goes beside it."""
     from spl_al.deploy.export import export_onnx

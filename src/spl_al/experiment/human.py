@@ -28,7 +28,7 @@ from spl_al.atomic import read_json, write_json
 
 
 def initial_set(
-    dataset_path, al: dict, seed: int, out_path, oracle: str = "simulated", seed_labels=None
+    dataset_path, al: dict, *, seed: int, out_path, oracle: str = "simulated", seed_labels=None
 ) -> dict:
     """The round-0 labeled set: ``round_steps.initial_set`` for a simulated oracle; for a
     human one the training rows of ``seed_labels`` (when it has any) or a random draw."""
@@ -99,8 +99,8 @@ def label_batch(
     write_batch(
         dataset,
         asked,
-        out_dir,
-        labels_file,
+        out_dir=out_dir,
+        labels_file=labels_file,
         export_file=export_file,
         probs=probs,
         model_version=model_version,

@@ -7,7 +7,7 @@ from spl_al.atomic import atomic_write, write_json
 
 
 def make_table(
-    metrics_paths, kind: str, experiments: dict, sweeps: dict, out_stem, notes=()
+    metrics_paths, kind: str, *, experiments: dict, sweeps: dict, out_stem, notes=()
 ) -> None:
     """One of the paper's tables (budget, levels, ablation, sensitivity) as CSV + MD + TeX;
     ``notes`` (e.g. ``spl_al.config.training_notes``) go into its caption."""
@@ -59,14 +59,14 @@ def make_curves(
     df = report.load_records(metrics_paths)
     df = df[df["method"].isin(methods)]
     if per_level:
-        report.plot_level_curves(df, png, pdf, methods=methods, title=title)
+        report.plot_level_curves(df, png, path_pdf=pdf, methods=methods, title=title)
         return
     panels = None
     if families and len(families.get("matched", [])) > 1 and len(families.get("paper", [])) > 1:
         paper = [m for m in methods if m in families["paper"]]
         matched = [m for m in methods if m in families["matched"]]
         panels = {"as the paper compares": paper, "matched training": matched}
-    report.plot_curves(df, png, pdf, methods=methods, title=title, panels=panels)
+    report.plot_curves(df, png, path_pdf=pdf, methods=methods, title=title, panels=panels)
 
 
 def make_summary(metrics_paths, out_path, notes=(), families=None) -> dict:

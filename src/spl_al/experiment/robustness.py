@@ -84,7 +84,7 @@ def grid_samples(dataset, test_samples: int | None) -> np.ndarray:
     return test[pick]
 
 
-def reimage(dataset, idx: np.ndarray, msppp: float, sbr: float, seed: int):
+def reimage(dataset, idx: np.ndarray, *, msppp: float, sbr: float, seed: int):
     """The samples ``idx`` imaged at (msppp, sbr): (depth (n, H, W) float32, source)."""
     from spl_al.data.observe import image_through_photons, observation_of, observe
     from spl_al.data.seeds import STREAM_VARIANT, sample_rng
@@ -97,8 +97,8 @@ def reimage(dataset, idx: np.ndarray, msppp: float, sbr: float, seed: int):
         depth, _ = observe(
             dataset.clean_depth_m[idx],
             refl,
-            np.full(n, msppp),
-            np.full(n, sbr),
+            msppp=np.full(n, msppp),
+            sbr=np.full(n, sbr),
             sensor=dataset.sensor,
             seed=seed,
             uid=dataset.uid[idx],
@@ -138,7 +138,9 @@ def make_grid_shard(observed_path, grid: dict, shard: int, out_path) -> dict:
     source = "clean"
     for k, c in enumerate(mine):
         m, s = conditions[c]
-        depth[k], source = reimage(dataset, idx, m, s, condition_seed(grid["seed"], m, s))
+        depth[k], source = reimage(
+            dataset, idx, msppp=m, sbr=s, seed=condition_seed(grid["seed"], m, s)
+        )
     finite = depth[np.isfinite(depth)]
     step = storage.choose_depth_step(float(finite.max()) if finite.size else 0.0)
     arrays = {
@@ -381,7 +383,7 @@ def difference_table(
 
 
 def robustness_report(
-    eval_paths, observed_path, table_csv, diff_csv, heatmap_png, diff_png
+    eval_paths, observed_path, *, table_csv, diff_csv, heatmap_png, diff_png
 ) -> dict:
     """Tables and figures of the robustness map of one dataset (see module docstring)."""
     from spl_al.report.stat_figures import difference_figure, heatmap_figure

@@ -153,7 +153,7 @@ def train_groups(
         images,
         valid.reshape(images.shape),
         targets,
-        cfg,
+        cfg=cfg,
         seed=seed,
         device=compute.device,
         log=log,
@@ -342,10 +342,10 @@ def _score_every_need(model, dataset, *, pool_idx, m, out_path, compute) -> None
         inputs = compute_inputs(
             model,
             needs,
-            depth,
-            valid,
-            unlabeled,
-            pool_idx,
+            depth_m=depth,
+            valid=valid,
+            unlabeled_idx=unlabeled,
+            labeled_idx=pool_idx,
             device=compute.device,
             precision=compute.precision,
         )
@@ -603,10 +603,10 @@ def score_pool(
     inputs = compute_inputs(
         model,
         strategy.needs,
-        depth,
-        valid,
-        unlabeled,
-        labeled,
+        depth_m=depth,
+        valid=valid,
+        unlabeled_idx=unlabeled,
+        labeled_idx=labeled,
         device=compute.device,
         precision=compute.precision,
     )

@@ -100,7 +100,7 @@ def plain(value):
 
 
 def run_job(
-    log_path, target: str, kwargs: dict, preload=(), pass_log: bool = False, show: bool = False
+    log_path, target: str, kwargs: dict, *, preload=(), pass_log: bool = False, show: bool = False
 ) -> None:
     """Run ``target(**kwargs)`` as one job: in a warm child when a server listens at
     ``$SPL_AL_WARM_SOCKET``, else here. Exits with the job's code when it fails.

@@ -41,9 +41,9 @@ from spl_al.plotting import (
 def write_batch(
     dataset: Dataset,
     pool_indices,
+    *,
     out_dir,
     labels_file,
-    *,
     mask_dir=None,
     export_file=None,
     probs=None,
@@ -70,7 +70,7 @@ def write_batch(
         _sample_picture(dataset, int(i), tmp / f"sample{dataset.uid[i]}.png")
     _batch_sheet(dataset, samples, tmp / "contact_sheet.png")
     _write_classes(dataset, tmp / "classes.csv")
-    write_import(dataset, samples, tmp, probs, model_version)
+    write_import(dataset, samples, out_dir=tmp, probs=probs, model_version=model_version)
     export_file = export_file or Path(labels_file).with_suffix(".json")
     seg = dataset.task == "segmentation"
     mask_dir = mask_dir or f"{Path(labels_file).stem}_masks"
@@ -140,7 +140,7 @@ def _sample_picture(dataset: Dataset, i: int, path: Path) -> None:
     axes = fig.subplots(rows, per_row, squeeze=False).ravel()
     lo, hi = depth_range(dataset.depth_m[i])
     for ax, (title, img) in zip(axes, images, strict=False):
-        show_image(ax, img, lo, hi, title)
+        show_image(ax, img, vmin=lo, vmax=hi, title=title)
     for ax in axes[len(images) :]:
         ax.axis("off")
     fig.colorbar(axes[0].images[0], ax=list(axes), label="depth (m); black: no return")
@@ -159,7 +159,7 @@ def _batch_sheet(dataset: Dataset, samples, path: Path) -> None:
     axes = fig.subplots(rows, cols, squeeze=False).ravel()
     for ax, i in zip(axes, samples, strict=False):
         lo, hi = depth_range(dataset.depth_m[i])
-        show_image(ax, dataset.depth_m[i], lo, hi, f"sample {dataset.uid[i]}")
+        show_image(ax, dataset.depth_m[i], vmin=lo, vmax=hi, title=f"sample {dataset.uid[i]}")
     for ax in axes[len(samples) :]:
         ax.axis("off")
     fig.suptitle(

@@ -79,6 +79,7 @@ def square_distances(a: torch.Tensor, b: torch.Tensor) -> torch.Tensor:
 def knn(
     query: torch.Tensor,
     ref: torch.Tensor,
+    *,
     k: int,
     backend: str | None = None,
     within_m: float | None = None,
@@ -211,7 +212,7 @@ def _farthest_point_sample_numpy(xyz: np.ndarray, n_centres: int) -> np.ndarray:
 
 
 def ball_query(
-    xyz: torch.Tensor, centres: torch.Tensor, radius_m: float, k: int, backend: str | None = None
+    xyz: torch.Tensor, centres: torch.Tensor, *, radius_m: float, k: int, backend: str | None = None
 ) -> torch.Tensor:
     """For each centre its ``k`` nearest points within ``radius_m``: (B, S, k) indices.
 
@@ -227,7 +228,7 @@ def ball_query(
     """
     n = xyz.shape[1]
     k_eff = min(k, n)
-    d2, near = knn(centres, xyz, k_eff, backend, within_m=radius_m)
+    d2, near = knn(centres, xyz, k=k_eff, backend=backend, within_m=radius_m)
     near = torch.where(d2 <= radius_m**2, near, near[..., :1])
     if k_eff < k:
         near = torch.cat([near, near[..., :1].expand(-1, -1, k - k_eff)], dim=-1)
@@ -259,7 +260,7 @@ def three_nn_interpolate(
         w_i = (1 / (d_i + eps)) / sum (1 / (d + eps)), d the Euclidean distance.
     """
     k = min(3, xyz_from.shape[1])
-    d2, idx = knn(xyz_to, xyz_from, k, backend)
+    d2, idx = knn(xyz_to, xyz_from, k=k, backend=backend)
     inv = 1.0 / (d2.sqrt() + _EPS_M)
     weight = (inv / inv.sum(-1, keepdim=True)).to(values_from.dtype)  # (B, P, k)
     return (gather_points(values_from, idx) * weight[..., None]).sum(-2)
@@ -341,7 +342,7 @@ class SetAbstraction(nn.Module):
         """xyz (B, N, 3), feats (B, N, F) -> centres (B, S, 3), features (B, S, F')."""
         centre_idx = farthest_point_sample(xyz, min(self.n_centres, xyz.shape[1]))
         centres = gather_points(xyz, centre_idx)
-        group = ball_query(xyz, centres, self.radius_m, self.k)  # (B, S, K)
+        group = ball_query(xyz, centres, radius_m=self.radius_m, k=self.k)  # (B, S, K)
         rel = (gather_points(xyz, group) - centres[:, :, None]) / self.radius_m
         grouped = torch.cat([rel, gather_points(feats, group)], dim=-1)  # (B, S, K, 3+F)
         return centres, self.mlp(grouped).amax(dim=2)  # (B, S, F')

@@ -47,7 +47,7 @@ def _imshow_depth(ax, depth, vmin, vmax, title):
 
 
 def render_condition_grid(
-    path, sensor: SensorParams | None = None, seed: int = 0, method: str = "pooled", weights=None
+    path, sensor: SensorParams | None = None, *, seed: int = 0, method: str = "pooled", weights=None
 ):
     """Write a PNG: clean depth and one pixel's histogram, then the reconstructed depth
     for every (msppp, sbr) in DEMO_MSPPP x DEMO_SBR. Voids are black."""

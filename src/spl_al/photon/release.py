@@ -110,6 +110,7 @@ def drop_isolated(depth_m: np.ndarray, tolerance_m: float, neighbours: int = 2) 
 def reconstruct_capture(
     capture: Capture,
     method: str = "pooled",
+    *,
     pulse_sigma_s: float | None = None,
     weights=None,
     seed: int = 0,

@@ -208,10 +208,10 @@ def save_figure(fig, path_png, path_pdf, dpi: int = 150) -> tuple:
 def plot_curves(
     df: pd.DataFrame,
     path_png,
+    *,
     path_pdf,
     methods: Sequence[str] | None = None,
     title: str | None = None,
-    *,
     metric_scale: float = 100,
     level: str | None = None,
     labels: Mapping[str, str] | None = None,
@@ -235,10 +235,10 @@ def plot_curves(
 def plot_level_curves(
     df: pd.DataFrame,
     path_png,
+    *,
     path_pdf,
     methods: Sequence[str] | None = None,
     title: str | None = None,
-    *,
     metric_scale: float = 100,
     labels: Mapping[str, str] | None = None,
     dataset: str | None = None,

@@ -230,6 +230,7 @@ def t_power(n, effect: float, level: float = LEVEL) -> np.ndarray:
 def seeds_needed(
     diff: float,
     sd: float,
+    *,
     level: float = LEVEL,
     power: float = POWER,
     cap: int = MAX_SEEDS_NEEDED,

@@ -870,13 +870,17 @@ def _add_surroundings(hits, grid, *, pose, centre, size, direction, view: Object
     """``hits`` with a ground plane (probability ``p_ground``) and a wall behind the
     object (probability ``p_wall``), the nearest surface winning each pixel."""
     if rng.random() < view.p_ground:
-        ground, _ = cast_plane(grid, pose, (0, 0, 0), (0, 0, 1), _u(rng, 0.03, 0.45), 0)
+        ground, _ = cast_plane(
+            grid, pose, point=(0, 0, 0), normal=(0, 0, 1), albedo=_u(rng, 0.03, 0.45), label=0
+        )
         hits = hits.nearest(ground)
     if rng.random() < view.p_wall:
         back = np.array([-direction[0], -direction[1], 0.0])
         back = M.rotation_z(np.deg2rad(_u(rng, -30, 30))) @ (back / max(np.linalg.norm(back), 1e-9))
         wall_point = centre + back * size * _u(rng, 0.7, 3.0)
-        wall, _ = cast_plane(grid, pose, wall_point, -back, _u(rng, 0.2, 0.7), 0)
+        wall, _ = cast_plane(
+            grid, pose, point=wall_point, normal=-back, albedo=_u(rng, 0.2, 0.7), label=0
+        )
         hits = hits.nearest(wall)
     return hits
 

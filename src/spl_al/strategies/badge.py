@@ -123,6 +123,7 @@ class _Embedding:
 def kmeans_pp_seeding(
     k: int,
     rng: np.random.Generator,
+    *,
     q=None,
     h=None,
     embedding=None,

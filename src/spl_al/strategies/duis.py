@@ -234,7 +234,7 @@ def candidate_pool(
     n = len(x)
     if n_cand >= n:
         return np.arange(n)
-    return nearest_unique(x, kmeans(x, n_cand, rng, max_iter=max_iter))
+    return nearest_unique(x, kmeans(x, n_cand, rng=rng, max_iter=max_iter))
 
 
 @register

@@ -82,7 +82,7 @@ def kmeans_plusplus(x, k: int, rng: np.random.Generator) -> np.ndarray:
 
 
 def kmeans(
-    x, k: int, rng: np.random.Generator, max_iter: int = 100, tol: float = 1e-4
+    x, k: int, *, rng: np.random.Generator, max_iter: int = 100, tol: float = 1e-4
 ) -> np.ndarray:
     """Lloyd's k-means from a k-means++ seeding, on the points less their mean.
 

@@ -4,8 +4,8 @@ Public API:
 
 - ``TrainConfig`` (``from_dict``, ``paper``), ``resolve_device(name)``.
 - ``flatten_groups(depth_m, valid, targets, variants=True)``: groups to training images.
-- ``train(model, depth_m, valid, targets, cfg, seed, device=None, log=None) -> model``.
-- ``predict(model, depth_m, valid, device=None, batch_size=256, features="image")
+- ``train(model, depth_m, valid, targets, *, cfg, seed, device=None, log=None) -> model``.
+- ``predict(model, depth_m, valid, *, device=None, batch_size=256, features="image")
   -> Predictions(probs, features)``.
 - ``evaluate(model, depth_m, valid, targets, levels=None, classes=None, device=None) -> dict``.
 """

@@ -57,7 +57,7 @@ def balanced_class_weights(targets: torch.Tensor, n_classes: int, power: float) 
     return (w * counts.sum() / (w * counts).sum().clamp_min(1e-12)).float()
 
 
-def check_targets(task: str, targets, n_images: int, image_shape, n_classes: int) -> np.ndarray:
+def check_targets(task: str, targets, *, n_images: int, image_shape, n_classes: int) -> np.ndarray:
     """Validate targets: (n,) class indices, or (n, H, W) masks with IGNORE_INDEX; int64 copy."""
     t = np.asarray(targets)
     expected = (n_images,) if task == "classification" else (n_images, *image_shape)
@@ -158,6 +158,7 @@ def random_crop_columns(
 def random_affine(
     x: torch.Tensor,
     y: torch.Tensor | None,
+    *,
     rotate_deg: float,
     scale: float,
     gen: torch.Generator,
@@ -253,8 +254,8 @@ def train(
     depth_m,
     valid,
     targets,
-    cfg: TrainConfig | dict | None = None,
     *,
+    cfg: TrainConfig | dict | None = None,
     seed: int = 0,
     device: str | torch.device | None = None,
     log: str | os.PathLike | TextIO | None = None,
@@ -379,7 +380,9 @@ def _check_inputs(model, depth_m: np.ndarray, targets, cfg: TrainConfig, groups)
     if depth_m.ndim != 3 or depth_m.shape[0] == 0:
         raise ValueError(f"depth_m must have shape (n, H, W) with n >= 1, got {depth_m.shape}.")
     n = depth_m.shape[0]
-    t = check_targets(task, targets, n, depth_m.shape[1:], model.n_classes)
+    t = check_targets(
+        task, targets, n_images=n, image_shape=depth_m.shape[1:], n_classes=model.n_classes
+    )
     if cfg.crop_width < 1 and getattr(model, "needs_grid", False):
         raise ValueError(
             f"crop_width {cfg.crop_width} needs a model that takes any image width; "
@@ -460,7 +463,9 @@ class _Augment:
         if max(self.shift_px) > 0:
             xb, masks = random_shift(xb, masks, self.shift_px, self.gen)
         if cfg.rotate_deg > 0 or cfg.scale > 0:
-            xb, masks = random_affine(xb, masks, cfg.rotate_deg, cfg.scale, self.gen)
+            xb, masks = random_affine(
+                xb, masks, rotate_deg=cfg.rotate_deg, scale=cfg.scale, gen=self.gen
+            )
         if self.crop_px < self.width:
             xb, masks = random_crop_columns(xb, masks, self.crop_px, self.gen)
         if seg:

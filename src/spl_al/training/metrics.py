@@ -122,9 +122,17 @@ def evaluate(
     depth_m = np.asarray(depth_m)
     if depth_m.ndim != 3:
         raise ValueError(f"depth_m must have shape (n, H, W), got {depth_m.shape}.")
-    t = check_targets(task, targets, len(depth_m), depth_m.shape[1:], model.n_classes)
+    t = check_targets(
+        task,
+        targets,
+        n_images=len(depth_m),
+        image_shape=depth_m.shape[1:],
+        n_classes=model.n_classes,
+    )
     confs = []
-    for start, probs, _, v in iter_forward(model, depth_m, valid, device, batch_size, precision):
+    for start, probs, _, v in iter_forward(
+        model, depth_m, valid, device=device, batch_size=batch_size, precision=precision
+    ):
         pred = probs.argmax(1).cpu().numpy()
         tb = t[start : start + len(pred)]
         if task == "segmentation":

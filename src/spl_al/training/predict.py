@@ -20,6 +20,7 @@ def iter_forward(
     model: nn.Module,
     depth_m,
     valid,
+    *,
     device: str | torch.device | None = None,
     batch_size: int = 256,
     precision: str = "fp32",
@@ -113,7 +114,9 @@ def predict(
         raise ValueError(f"features must be one of {FEATURE_MODES}, got {features!r}.")
     probs, feats = [], []
     per_pixel = model.task == "segmentation"
-    for _, p, f, v in iter_forward(model, depth_m, valid, device, batch_size, precision):
+    for _, p, f, v in iter_forward(
+        model, depth_m, valid, device=device, batch_size=batch_size, precision=precision
+    ):
         probs.append(p.cpu().numpy())
         if features == "image" and per_pixel:
             f = pool_pixels(f, v)

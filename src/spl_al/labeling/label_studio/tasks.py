@@ -105,7 +105,7 @@ def _pictures(dataset: Dataset, i: int) -> tuple[str, str | None]:
     return _png_url(observed), _png_url(np.concatenate(parts, axis=1))
 
 
-def prediction(task: str, probs, valid, classes, model_version: str) -> dict:
+def prediction(task: str, probs, *, valid, classes, model_version: str) -> dict:
     """Label Studio pre-annotation of one sample from the model's probabilities.
 
     Args:
@@ -161,14 +161,20 @@ def batch_tasks(dataset: Dataset, samples, probs=None, model_version: str = "") 
         if probs is not None:
             valid = np.isfinite(dataset.depth_m[i]) & (np.asarray(dataset.depth_m[i]) > 0)
             task["predictions"] = [
-                prediction(dataset.task, probs[n], valid, dataset.classes, model_version)
+                prediction(
+                    dataset.task,
+                    probs[n],
+                    valid=valid,
+                    classes=dataset.classes,
+                    model_version=model_version,
+                )
             ]
         tasks.append(task)
     return tasks
 
 
 def write_import(
-    dataset: Dataset, samples, out_dir, probs=None, model_version: str = ""
+    dataset: Dataset, samples, *, out_dir, probs=None, model_version: str = ""
 ) -> tuple[Path, Path]:
     """Write ``label_studio.xml`` and ``label_studio.json`` of a batch into ``out_dir``."""
     out_dir = Path(out_dir)

@@ -148,8 +148,8 @@ def read_cube(
     return counts_capture(
         path,
         events,
-        n_bins,
-        arrays,
+        n_bins=n_bins,
+        values=arrays,
         format="cube",
         given_bin_width_s=bin_width_s,
         unit_s=unit_s,

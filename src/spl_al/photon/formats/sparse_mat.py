@@ -83,8 +83,8 @@ def read_sparse_mat(
     return counts_capture(
         path,
         events,
-        n_bins,
-        variables,
+        n_bins=n_bins,
+        values=variables,
         format="sparse_mat",
         given_bin_width_s=bin_width_s,
         unit_s=unit_s,

@@ -78,9 +78,9 @@ def stated_gate(values: Mapping, unit_s: float) -> tuple[float, float] | None:
 def counts_capture(
     path: Path,
     events: PhotonEvents,
+    *,
     n_bins: int,
     values: Mapping,
-    *,
     format: str,
     given_bin_width_s: float | None,
     unit_s: float,

@@ -27,7 +27,7 @@ def timestamp_cells(events: PhotonEvents, bin_width_ps: int, gate_start_ps: int 
     return cells
 
 
-def write_timestamps_mat(path, events, bin_width_ps: int, gate_ps=None, key="photons"):
+def write_timestamps_mat(path, events, *, bin_width_ps: int, gate_ps=None, key="photons"):
     """A MATLAB v5 .mat with ``key`` an H x W cell array of times (ps), optional ``gate``."""
     from scipy import io as sio
 

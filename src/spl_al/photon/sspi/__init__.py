@@ -52,7 +52,7 @@ def check_conditions(sensor: SensorParams, shape) -> list[str]:
 
 
 def reconstruct_sspi(
-    events: PhotonEvents, shape, sensor: SensorParams, weights=None, device=None, window_bins=3
+    events: PhotonEvents, shape, sensor: SensorParams, *, weights=None, device=None, window_bins=3
 ):
     """SSPI depth, with reflectivity and background counted around it.
 

@@ -140,7 +140,7 @@ class SparseUNet:
         }
 
     def _conv(self, name: str, features: torch.Tensor, book: Rulebook) -> torch.Tensor:
-        return apply_rulebook(features, book, self.weights[name], self.biases.get(name))
+        return apply_rulebook(features, book, weight=self.weights[name], bias=self.biases.get(name))
 
     def _norm_relu(self, name: str, features: torch.Tensor) -> torch.Tensor:
         return torch.relu(batch_norm(features, self.norms[name]))

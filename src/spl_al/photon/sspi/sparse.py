@@ -211,6 +211,7 @@ def conv_weight(spconv_weight: torch.Tensor) -> torch.Tensor:
 def apply_rulebook(
     features: torch.Tensor,
     book: Rulebook,
+    *,
     weight: torch.Tensor,
     bias: torch.Tensor | None = None,
     rows_per_chunk: int = 4096,
