@@ -1,6 +1,7 @@
 """Functions a reader can hold in mind: no function of src/spl_al takes more than six
-positional parameters (``self`` and ``cls`` aside; the rest are keyword-only), and
-none runs over 60 lines of code (its docstring, blank lines and comments aside).
+positional parameters (``self`` and ``cls`` aside; the rest are keyword-only), a
+public one with more than four parameters at most four, and none runs over 60 lines
+of code (its docstring, blank lines and comments aside).
 
 Read from the source with ``ast``, like tests/test_imports.py. ``EXCEPTIONS`` and
 ``LONG_EXCEPTIONS`` list the functions allowed more, each with its reason; both
@@ -62,6 +63,22 @@ def code_lines(text: str):
             start = first.end_lineno if docstring else first.lineno - 1
             body = lines[start : node.end_lineno]
             yield node.name, sum(1 for ln in body if ln.strip() and not ln.strip().startswith("#"))
+
+
+def test_public_functions_take_their_options_by_keyword():
+    """scikit-learn's style: a public function (or method) with more than four
+    parameters takes at most four positionally, the data; the options by keyword."""
+    over = []
+    for path in sorted(SRC.rglob("*.py")):
+        for node in ast.walk(ast.parse(path.read_text())):
+            if isinstance(node, ast.FunctionDef) and not node.name.startswith("_"):
+                args = node.args
+                positional = [
+                    a.arg for a in args.posonlyargs + args.args if a.arg not in ("self", "cls")
+                ]
+                if len(positional) + len(args.kwonlyargs) > 4 and len(positional) > 4:
+                    over.append(f"{path.relative_to(SRC)}:{node.name}")
+    assert not over, f"make the options keyword-only: {over}"
 
 
 def test_no_function_runs_over_sixty_lines_of_code():

@@ -204,7 +204,7 @@ class Imaging:
     model: ObservationModel | None = None
     range_compensated: bool = False
 
-    def observe(self, depth_m, reflectance, msppp: float, sbr: float, rng):
+    def observe(self, depth_m, reflectance, *, msppp: float, sbr: float, rng):
         """``observe_image`` of one clean (H, W) depth image in metres under this imaging."""
         return observe_image(
             depth_m,
@@ -223,7 +223,7 @@ def _observe_chunk(depth, reflectance, msppp, sbr, uid, *, seed: int, imaging: I
     for k in range(len(depth)):
         rng = sample_rng(seed, STREAM_OBSERVE, uid[k])
         refl = None if reflectance is None else reflectance[k]
-        out_d[k], out_r[k] = imaging.observe(depth[k], refl, msppp[k], sbr[k], rng)
+        out_d[k], out_r[k] = imaging.observe(depth[k], refl, msppp=msppp[k], sbr=sbr[k], rng=rng)
     return out_d, out_r
 
 

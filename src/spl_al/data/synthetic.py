@@ -197,7 +197,9 @@ def _chunk_arrays(n: int, shape: tuple[int, int], extra: dict) -> dict[str, np.n
 def _observe_into(out: dict, k: int, img, *, msppp: float, sbr: float, imaging, rng) -> None:
     """Row k of out["depth"] / out["refl"]: the clean scene ``img`` seen through
     ``imaging`` at (msppp, sbr)."""
-    out["depth"][k], out["refl"][k] = imaging.observe(img.depth_m, img.reflectance, msppp, sbr, rng)
+    out["depth"][k], out["refl"][k] = imaging.observe(
+        img.depth_m, img.reflectance, msppp=msppp, sbr=sbr, rng=rng
+    )
 
 
 @dataclass(frozen=True)

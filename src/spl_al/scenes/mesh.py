@@ -106,7 +106,7 @@ def _circle(n_sides: int, phase: float = 0.0) -> tuple[np.ndarray, np.ndarray]:
 
 
 def lathe(
-    radius, height, albedo: float, label: int = 0, n_sides: int = 20, scale_xy=(1.0, 1.0), **kw
+    radius, height, albedo: float, *, label: int = 0, n_sides: int = 20, scale_xy=(1.0, 1.0), **kw
 ) -> Mesh:
     """Surface of revolution about Z: ring k has radius ``radius[k]`` at ``height[k]``.
 
@@ -129,14 +129,16 @@ def lathe(
     return loft(rings, albedo, label, **kw)
 
 
-def ellipsoid(radii, albedo: float, label: int = 0, n_sides: int = 16, n_rings: int = 10) -> Mesh:
+def ellipsoid(
+    radii, albedo: float, *, label: int = 0, n_sides: int = 16, n_rings: int = 10
+) -> Mesh:
     """Ellipsoid centred at the origin with semi-axes ``radii`` = (rx, ry, rz)."""
     theta = np.linspace(0.0, np.pi, n_rings + 1)
     return lathe(
         np.sin(theta),
         -np.cos(theta) * radii[2],
         albedo,
-        label,
+        label=label,
         n_sides=n_sides,
         scale_xy=(radii[0], radii[1]),
     )
@@ -163,9 +165,9 @@ def tube(
     path,
     radius,
     albedo: float,
+    *,
     label: int = 0,
     n_sides: int = 8,
-    *,
     up=None,
     closed=False,
     ellipse=1.0,
@@ -199,8 +201,8 @@ def cylinder_between(
         np.stack([np.asarray(p0, float), np.asarray(p1, float)]),
         [radius, r1],
         albedo,
-        label,
-        n_sides,
+        label=label,
+        n_sides=n_sides,
     )
 
 
@@ -208,6 +210,7 @@ def torus(
     major_radius: float,
     minor_radius: float,
     albedo: float,
+    *,
     label: int = 0,
     n_major: int = 32,
     n_minor: int = 6,
@@ -217,7 +220,9 @@ def torus(
     path = np.stack(
         [major_radius * np.cos(ang), np.zeros(n_major), major_radius * np.sin(ang)], axis=1
     )
-    return tube(path, minor_radius, albedo, label, n_sides=n_minor, up=(0.0, 1.0, 0.0), closed=True)
+    return tube(
+        path, minor_radius, albedo, label=label, n_sides=n_minor, up=(0.0, 1.0, 0.0), closed=True
+    )
 
 
 def box(size, albedo: float, label: int = 0, center=(0.0, 0.0, 0.0)) -> Mesh:
@@ -230,7 +235,9 @@ def box(size, albedo: float, label: int = 0, center=(0.0, 0.0, 0.0)) -> Mesh:
     return loft(rings, albedo, label, smooth=False)
 
 
-def prism(polygon_xz, depth: float, albedo: float, label: int = 0, center=(0.0, 0.0, 0.0)) -> Mesh:
+def prism(
+    polygon_xz, depth: float, albedo: float, *, label: int = 0, center=(0.0, 0.0, 0.0)
+) -> Mesh:
     """Convex polygon in the XZ plane (P, 2) extruded along Y by ``depth``; flat shaded."""
     poly = np.asarray(polygon_xz, dtype=np.float64)
     y = depth / 2

@@ -298,7 +298,7 @@ def cast_mesh(grid: ScanGrid, pose: Pose, mesh: Mesh, min_range_m: float = 1e-6)
 
 
 def cast_plane(
-    grid: ScanGrid, pose: Pose, point, normal, albedo, label: int, *, min_range_m: float = 1e-6
+    grid: ScanGrid, pose: Pose, point, normal, *, albedo, label: int, min_range_m: float = 1e-6
 ):
     """Intersection of every ray with the infinite plane through ``point`` with ``normal``.
 
