@@ -638,14 +638,19 @@ def exportable(dataset):
 
 
 def card_outputs(dataset):
-    """The model cards beside the budget experiment's final-round models."""
+    """The model cards beside the budget experiment's final-round models: of every
+    method (``export.cards: all``) or of the exported methods only (``exported``)."""
     budget = experiments_of(config, dataset).get("budget")
     if not budget:
         return []
+    export = config.get("export") or {}
+    methods = budget["methods"]
+    if export.get("cards", "all") == "exported":
+        methods = [m for m in methods if m in export.get("methods", [])]
     last = int(budget["rounds"]) - 1
     return [
         f"{RESULTS}/{dataset}/{method}/seed{seed}/round{last}/model.card.{ext}"
-        for method in budget["methods"]
+        for method in methods
         for seed in budget["seeds"]
         for ext in ("json", "md")
     ]
