@@ -1,21 +1,17 @@
 # spl-al: condition-aware active learning for single-photon LiDAR.
 # Rules live in workflow/rules/ (data, al, report), numerics in the spl_al library.
 import copy
-import os
 import sys
 from pathlib import Path
 
 from snakemake.utils import min_version
 
-# The workflow runs the library of its own checkout (src/), before any installed copy,
-# in this process and in every job and warm server it starts: a checkout works without
-# an install, and an install of another checkout cannot stand in for this one.
+# The Snakefile reads the library of its own checkout (src/) before any installed copy,
+# so that `snakemake -n` works in a checkout that is not installed (jobs need the install:
+# scripts/install.sh).
 _SRC = Path(workflow.basedir) / "src"
 if (_SRC / "spl_al").is_dir():
     sys.path.insert(0, str(_SRC))
-    os.environ["PYTHONPATH"] = os.pathsep.join(
-        [str(_SRC), *filter(None, [os.environ.get("PYTHONPATH")])]
-    )
 
 from spl_al.config import check_config, drop_removed, select_datasets
 
