@@ -10,9 +10,35 @@ from photon_scenes import disc_scene
 
 from spl_al.bench.estimate import ESTIMATE_ENV
 from spl_al.config import REAL_CAPTURES_ENV
+from spl_al.experiment.warm import SOCKET_ENV, Server
 
 # The test runs' plans leave out the time estimate: it times every model first.
 os.environ.setdefault(ESTIMATE_ENV, "0")
+
+
+def pytest_configure(config):
+    # Under pytest-xdist, torch's threads share the cores among the workers: two workers
+    # with two OpenMP threads each on two cores spin against each other (~10% slower).
+    workers = int(os.environ.get("PYTEST_XDIST_WORKER_COUNT", "1"))
+    if workers > 1:
+        import torch
+
+        torch.set_num_threads(max(1, (os.cpu_count() or 1) // workers))
+
+
+@pytest.fixture(scope="session")
+def warm_server(tmp_path_factory):
+    """One warm job server for this test process's Snakemake runs, named in the
+    environment they inherit: each run uses it (same library, see
+    ``spl_al.experiment.warm.shared_server``) instead of starting its own, whose
+    imports cost ~7 CPU-s on a 2-core AVX2 CPU. Runs with another PYTHONPATH, on a
+    cluster profile or with ``warm_worker: false`` still do without it."""
+    previous = os.environ.pop(SOCKET_ENV, None)
+    server = Server.start(tmp_path_factory.mktemp("warm") / "server.log")
+    yield server.address
+    server.stop()
+    if previous is not None:
+        os.environ[SOCKET_ENV] = previous
 
 
 @pytest.fixture

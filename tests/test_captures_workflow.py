@@ -22,6 +22,7 @@ from spl_al.photon import SensorParams
 ROOT = Path(__file__).resolve().parents[1]
 pytestmark = [
     pytest.mark.slow,
+    pytest.mark.usefixtures("warm_server"),  # tests/conftest.py: one server for every run
     pytest.mark.skipif(shutil.which("snakemake") is None, reason="snakemake not installed"),
 ]
 # 80 ps bins, 520 ps jitter (the paper's sensor) over a 4096-bin gate (49 m): what a

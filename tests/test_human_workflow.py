@@ -22,6 +22,7 @@ from spl_al.data import Dataset
 ROOT = Path(__file__).resolve().parents[1]
 pytestmark = [
     pytest.mark.slow,
+    pytest.mark.usefixtures("warm_server"),  # tests/conftest.py: one server for every run
     pytest.mark.skipif(shutil.which("snakemake") is None, reason="snakemake not installed"),
 ]
 
@@ -137,6 +138,7 @@ def test_two_human_rounds_match_the_simulated_oracle(tmp_path):
     annotate_in_label_studio(data, ls / "duis/seed1/round1/to_label", round1_json)
     run = snakemake(tmp_path, *targets)
     assert run.returncode == 0, run.stderr[-3000:]
+    assert not (results / "logs" / "warm_server.log").exists()  # each run used the shared one
     for r in (0, 1):  # Label Studio labels train exactly as CSV labels
         run_dir = f"duis/seed1/round{r}"
         for name in ("labeled.json", "metrics.json"):

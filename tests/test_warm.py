@@ -11,7 +11,7 @@ from pathlib import Path
 
 import pytest
 
-from spl_al.experiment.warm import SOCKET_ENV, Server, plain, run_job
+from spl_al.experiment.warm import SOCKET_ENV, Server, plain, run_job, shared_server
 
 JOBS = textwrap.dedent(
     """
@@ -134,6 +134,38 @@ def test_a_warm_child_trains_the_weights_of_a_fresh_process(server, folder, monk
     assert client("weights", {"path": "cold.pt"}).returncode == 0
     warm, cold = (torch.load(folder / f, weights_only=True) for f in ("warm.pt", "cold.pt"))
     assert all(torch.equal(warm[k], cold[k]) for k in cold)
+
+
+def test_a_run_uses_a_server_started_before_it_and_leaves_it_running(server, monkeypatch):
+    """A server named in the environment that imports what this process imports serves
+    the run: ``for_run`` starts none and stops nothing. With warm jobs off, the run's
+    jobs are told of no server at all (a cluster run's jobs must start fresh)."""
+    monkeypatch.setenv(SOCKET_ENV, server.address)
+    assert shared_server(server.address)
+    assert Server.for_run(server.folder / "run.log", enabled=True) is None
+    assert os.environ[SOCKET_ENV] == server.address and server.process.poll() is None
+    assert not (server.folder / "run.log").exists()
+    assert Server.for_run(server.folder / "run.log", enabled=False) is None
+    assert SOCKET_ENV not in os.environ and server.process.poll() is None
+
+
+def test_a_server_importing_something_else_is_not_shared(server, folder, monkeypatch):
+    assert not shared_server(str(folder / "nobody-listens"))
+    monkeypatch.setenv("PYTHONPATH", f"{folder}{os.pathsep}{os.environ['PYTHONPATH']}")
+    assert not shared_server(server.address)  # its jobs would miss this folder
+
+
+def test_a_standalone_server_stops_on_sigterm_and_removes_its_socket(folder):
+    address = folder / "socket"
+    code = f"from spl_al.experiment.warm import serve; serve({str(address)!r}, preload=())"
+    proc = subprocess.Popen([sys.executable, "-c", code])
+    deadline = time.monotonic() + 30
+    while not shared_server(str(address)):
+        assert proc.poll() is None and time.monotonic() < deadline
+        time.sleep(0.05)
+    proc.terminate()
+    assert proc.wait(10) == 0
+    assert not address.exists() and not Path(f"{address}.json").exists()
 
 
 def test_snakemake_names_pickle_as_plain_values():

@@ -16,6 +16,7 @@ from spl_al.config import drop_removed
 ROOT = Path(__file__).resolve().parents[1]
 pytestmark = [
     pytest.mark.slow,
+    pytest.mark.usefixtures("warm_server"),  # tests/conftest.py: one server for every run
     pytest.mark.skipif(shutil.which("snakemake") is None, reason="snakemake not installed"),
 ]
 

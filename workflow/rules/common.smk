@@ -546,8 +546,12 @@ def start_warm_worker():
     per_rule_envs = (
         DeploymentMethod.CONDA in workflow.deployment_settings.deployment_method
     )
-    if config.get("warm_worker", True) and workflow.local_exec and not per_rule_envs:
-        _warm["server"] = Server.start(f"{RESULTS}/logs/warm_server.log")
+    enabled = (
+        config.get("warm_worker", True) and workflow.local_exec and not per_rule_envs
+    )
+    server = Server.for_run(f"{RESULTS}/logs/warm_server.log", enabled=enabled)
+    if server:
+        _warm["server"] = server
 
 
 def stop_warm_worker():
