@@ -61,6 +61,10 @@ PRELOAD = (
     "scipy.spatial",
     "pandas",
     "matplotlib.pyplot",
+    "matplotlib.backends.backend_pdf",  # every figure is also saved as PDF
+    "torch.onnx",  # the export step: ~0.5 s of its first export is these imports
+    "onnx",  # (not onnxruntime: importing it starts a thread, and fork copies none)
+    "spl_al.deploy.export",
     "spl_al.data",
     "spl_al.training",
     "spl_al.scoring",
