@@ -1,6 +1,7 @@
 """Warm job processes: a job run through the server is the job run on its own (files,
 log, exit code, streams, environment, numbers), and dies with its client."""
 
+import json
 import os
 import signal
 import subprocess
@@ -153,6 +154,19 @@ def test_a_server_importing_something_else_is_not_shared(server, folder, monkeyp
     assert not shared_server(str(folder / "nobody-listens"))
     monkeypatch.setenv("PYTHONPATH", f"{folder}{os.pathsep}{os.environ['PYTHONPATH']}")
     assert not shared_server(server.address)  # its jobs would miss this folder
+    monkeypatch.undo()
+    # a socket left behind by a server that is gone (its pid exited, or none recorded)
+    stale = folder / "stale"
+    stale.write_text("")
+    info = json.loads(Path(f"{server.address}.json").read_text())
+    for pid in (
+        subprocess.run(
+            [sys.executable, "-c", "import os; print(os.getpid())"], capture_output=True, text=True
+        ).stdout.strip(),
+        0,
+    ):
+        Path(f"{stale}.json").write_text(json.dumps({**info, "pid": int(pid)}))
+        assert not shared_server(str(stale))
 
 
 def test_a_standalone_server_stops_on_sigterm_and_removes_its_socket(folder):

@@ -235,6 +235,7 @@ def serve(address: str, preload=PRELOAD, parent_pid: int | None = None) -> None:
     """
     server = socket.socket(socket.AF_UNIX, socket.SOCK_STREAM)
     server.bind(address)
+    owner = os.getpid()
     signal.signal(signal.SIGTERM, _exit_cleanly)
     try:
         server.listen(128)
@@ -260,8 +261,9 @@ def serve(address: str, preload=PRELOAD, parent_pid: int | None = None) -> None:
             conn.close()
     finally:
         server.close()
-        for path in (address, f"{address}.json"):
-            Path(path).unlink(missing_ok=True)
+        if os.getpid() == owner:  # not a child caught between fork and its own handlers
+            for path in (address, f"{address}.json"):
+                Path(path).unlink(missing_ok=True)
 
 
 def _exit_cleanly(_signum, _frame):
@@ -294,7 +296,8 @@ def shared_server(address: str | None) -> bool:
         info = json.loads(Path(f"{address}.json").read_text())
     except (OSError, ValueError):
         return False
-    return _alive(int(info.pop("pid", 0)) or -1) and info == _identity()
+    pid = int(info.pop("pid", 0))
+    return pid > 0 and _alive(pid) and info == _identity()
 
 
 class Server:
