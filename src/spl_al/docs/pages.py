@@ -239,6 +239,15 @@ def _md_table(results: Path, dataset: str, name: str) -> str | None:
     return path.read_text().strip() if path.exists() else None
 
 
+def _shown(results: Path) -> str:
+    """The results folder as a reader of the page would have it: relative to the
+    checkout, or, for a folder elsewhere, its own name (a run's ``results`` key)."""
+    try:
+        return results.resolve().relative_to(Path.cwd().resolve()).as_posix()
+    except ValueError:
+        return results.name
+
+
 def _resolved_comparisons(results: Path, dataset: str) -> list[str]:
     path = results / dataset / "tables" / "comparisons.csv"
     if not path.exists():
@@ -247,7 +256,7 @@ def _resolved_comparisons(results: Path, dataset: str) -> list[str]:
     resolved = [r for r in rows if str(r.get("resolved", "")).lower() == "true"]
     lines = [
         f"{len(resolved)} of {len(rows)} paired comparisons are resolved "
-        f"(all of them: `{results.as_posix()}/{dataset}/tables/comparisons.md`)."
+        f"(all of them: `{_shown(results)}/{dataset}/tables/comparisons.md`)."
     ]
     if resolved:
         lines += [
