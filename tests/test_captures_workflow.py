@@ -7,13 +7,13 @@ from __future__ import annotations
 
 import shutil
 import subprocess
-import sys
 from pathlib import Path
 
 import numpy as np
 import pandas as pd
 import pytest
 from photon_captures import simulate_capture, write_ptu, write_timestamps_mat
+from snakemake_cli import SNAKEMAKE
 
 from spl_al.data.digits import digit_scene
 from spl_al.data.seeds import STREAM_SCENE, sample_rng
@@ -71,7 +71,7 @@ def test_captures_run_through_the_budget_and_level_tables(captures, tmp_path):
     results = tmp_path / "results"
     tables = results / "real_cls" / "tables"
     targets = [str(tables / f"{name}.csv") for name in ("budget", "levels", "comparisons")]
-    cmd = [sys.executable, "-m", "snakemake", "-j2", *targets, "--configfile", "config/ci.yaml"]
+    cmd = [*SNAKEMAKE, "-j2", *targets, "--configfile", "config/ci.yaml"]
     cmd += [str(override), "--config", f"results={results}"]
     run = subprocess.run(cmd, cwd=ROOT, capture_output=True, text=True)
     assert run.returncode == 0, run.stdout[-3000:] + run.stderr[-3000:]

@@ -16,10 +16,10 @@ import importlib.util
 import os
 import re
 import subprocess
-import sys
 from pathlib import Path
 
 import pytest
+from snakemake_cli import SNAKEMAKE
 from test_doc_examples import shell_commands
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -122,7 +122,7 @@ def test_every_documented_command_dry_runs(args):
         pytest.skip("the SLURM executor plugin is not installed (pip install -e '.[cluster]')")
     env = {**os.environ, "SPL_AL_ESTIMATE": "0"}
     slurm = "profiles/slurm" in args
-    cmd = [sys.executable, "-m", "snakemake", "-n", *args, *([] if slurm else ["--quiet", "rules"])]
+    cmd = [*SNAKEMAKE, "-n", *args, *([] if slurm else ["--quiet", "rules"])]
     run = subprocess.run(cmd, cwd=ROOT, capture_output=True, text=True, env=env, timeout=300)
     assert run.returncode == 0, run.stdout[-2000:] + run.stderr[-2000:]
     if slurm:  # a round's train and the query it feeds: one submission, one group job

@@ -19,6 +19,7 @@ from pathlib import Path
 import pytest
 import yaml
 from snakemake.utils import update_config
+from snakemake_cli import SNAKEMAKE
 
 from spl_al.config import check_config, drop_removed, select_datasets
 from spl_al.experiment.plan import check_plan
@@ -124,7 +125,7 @@ def planned_datasets(text: str, workdir: Path, tmp_path: Path) -> set[str]:
     config = tmp_path / "example.yaml"
     config.write_text(yaml.safe_dump(user))
     run = subprocess.run(
-        [sys.executable, "-m", "snakemake", "-n", "--cores", "1", "--configfile", str(config)],
+        [*SNAKEMAKE, "-n", "--cores", "1", "--configfile", str(config)],
         cwd=workdir,
         capture_output=True,
         text=True,

@@ -11,11 +11,11 @@ import csv
 import json
 import shutil
 import subprocess
-import sys
 from pathlib import Path
 
 import numpy as np
 import pytest
+from snakemake_cli import SNAKEMAKE
 
 from spl_al.data import Dataset
 
@@ -44,7 +44,7 @@ def read_json(path):
 
 
 def snakemake(tmp_path, *targets):
-    cmd = [sys.executable, "-m", "snakemake", "-j2", "--keep-going", *targets]
+    cmd = [*SNAKEMAKE, "-j2", "--keep-going", *targets]
     cmd += ["--configfile", str(tmp_path / "config.yaml")]
     return subprocess.run(cmd, cwd=ROOT, capture_output=True, text=True)
 

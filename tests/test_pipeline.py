@@ -13,12 +13,12 @@ import os
 import shutil
 import signal
 import subprocess
-import sys
 import time
 from pathlib import Path
 
 import pandas as pd
 import pytest
+from snakemake_cli import SNAKEMAKE
 
 ROOT = Path(__file__).resolve().parents[1]
 pytestmark = [
@@ -40,7 +40,7 @@ WALL: dict[str, float] = {}
 
 
 def snakemake(results: Path, *args, check=True, profile=None, background=False, env=None):
-    cmd = [sys.executable, "-m", "snakemake", "--configfile", "config/ci.yaml"]
+    cmd = [*SNAKEMAKE, "--configfile", "config/ci.yaml"]
     cmd += ["--config", f"results={results}"]
     cmd += ["--profile", profile] if profile else ["-j2"]
     cmd += list(args)

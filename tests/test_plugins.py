@@ -9,13 +9,13 @@ import os
 import re
 import shutil
 import subprocess
-import sys
 from pathlib import Path
 
 import numpy as np
 import pandas as pd
 import pytest
 import yaml
+from snakemake_cli import SNAKEMAKE
 from test_strategies import check_contract, make_inputs
 
 from spl_al import strategies
@@ -224,7 +224,7 @@ def test_an_entry_point_strategy_runs_one_round_of_the_ci_dag(on_path, tmp_path)
     # index, which must stop alone (--keep-going) in one sentence, writing no file
     table_csv = results / "real_cls" / "tables" / "budget.csv"
     bad = results / "real_cls" / "bad" / "seed1" / "round1" / "labeled.json"
-    cmd = [sys.executable, "-m", "snakemake", "-j2", "--keep-going", str(table_csv), str(bad)]
+    cmd = [*SNAKEMAKE, "-j2", "--keep-going", str(table_csv), str(bad)]
     cmd += ["--configfile", "config/ci.yaml", str(override), "--config", f"results={results}"]
     run = subprocess.run(cmd, cwd=ROOT, capture_output=True, text=True, env=env)
     out = run.stdout + run.stderr

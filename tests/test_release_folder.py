@@ -8,12 +8,12 @@ from __future__ import annotations
 import json
 import shutil
 import subprocess
-import sys
 from pathlib import Path
 
 import numpy as np
 import pandas as pd
 import pytest
+from snakemake_cli import SNAKEMAKE
 
 from spl_al.data import load_folder
 from spl_al.data.digits import write_digits_folder
@@ -71,7 +71,7 @@ def test_release_layout_runs_through_every_table(release, tmp_path):
         "      ablation: null\n      sensitivity: null\n"
     )
     results = tmp_path / "results"
-    cmd = [sys.executable, "-m", "snakemake", "-j2", "--configfile", "config/ci.yaml"]
+    cmd = [*SNAKEMAKE, "-j2", "--configfile", "config/ci.yaml"]
     cmd += [str(override), "--config", f"results={results}"]
     run = subprocess.run(cmd, cwd=ROOT, capture_output=True, text=True)
     assert run.returncode == 0, run.stdout[-3000:] + run.stderr[-3000:]

@@ -5,11 +5,11 @@ from __future__ import annotations
 import os
 import shutil
 import subprocess
-import sys
 from pathlib import Path
 
 import pytest
 import yaml
+from snakemake_cli import SNAKEMAKE
 
 from spl_al.config import drop_removed
 
@@ -22,9 +22,7 @@ pytestmark = [
 
 
 def snakemake(*args, cwd=ROOT):
-    return subprocess.run(
-        [sys.executable, "-m", "snakemake", *args], cwd=cwd, capture_output=True, text=True
-    )
+    return subprocess.run([*SNAKEMAKE, *args], cwd=cwd, capture_output=True, text=True)
 
 
 def test_unknown_config_key_fails_before_any_job_with_the_key_named():
@@ -63,7 +61,7 @@ def test_override_file_changes_only_the_values_it_names(tmp_path):
 def test_a_missing_real_captures_folder_is_one_line_naming_the_variable(tmp_path):
     env = {**os.environ, "SPL_AL_REAL_CAPTURES": str(tmp_path / "nowhere")}
     run = subprocess.run(
-        [sys.executable, "-m", "snakemake", "-n", "--cores", "1"],
+        [*SNAKEMAKE, "-n", "--cores", "1"],
         cwd=ROOT,
         capture_output=True,
         text=True,
