@@ -202,3 +202,77 @@ def test_run_job_in_process_passes_the_log(tmp_path, monkeypatch):
     )
     run_job(tmp_path / "job.log", "any:thing", {}, pass_log=True)
     assert seen["log"].name == str(Path(tmp_path / "job.log"))
+
+
+# A workflow script as rules run it (`shell: python_job(NAME)`): it reads its job from
+# `snakemake` and writes back what it saw.
+SCRIPT = textwrap.dedent(
+    """
+    import json, os
+    import numpy  # from site-packages, which the client's `python -S` leaves out at first
+    s = snakemake
+    seen = {
+        "pid": os.getpid(),
+        "input": list(s.input), "named": s.input.shards, "data": s.input.data,
+        "get": [s.input.get("data"), s.input.get("model")], "has_model": hasattr(s.input, "model"),
+        "output": dict(s.output.items()), "log": s.log[0], "threads": s.threads,
+        "sweeps": {str(k): v for k, v in s.params.sweeps.items()},
+        "key_types": sorted({type(k).__name__ for k in s.params.sweeps}),
+        "seed": s.wildcards.seed,
+    }
+    open(s.output.seen, "w").write(json.dumps(seen))
+    if s.params.fail:
+        raise SystemExit(3)
+    """
+)
+
+
+def script_job(folder: Path, fail=False) -> list[str]:
+    """The command a rule runs for SCRIPT: python -S -P warm_client.py SCRIPT LOG THREADS JOB,
+    with the job written from Snakemake's own named lists."""
+    from snakemake.iocontainers import Namedlist
+
+    from spl_al.experiment import warm_client
+
+    (folder / "script.py").write_text(SCRIPT)
+    inputs = Namedlist(toclone=["data.npz", "s0.npz", "s1.npz"])
+    inputs._set_name("data", 0)
+    inputs._set_name("shards", 1, end=3)
+    outputs = Namedlist(fromdict={"seen": str(folder / "seen.json")})
+    wildcards = Namedlist(fromdict={"seed": "7"})
+    params = {"sweeps": {0.25: "duis_alpha0.25", 12: "duis"}, "fail": fail}
+    text = warm_client.job_text(inputs, outputs, wildcards, params)
+    client = [sys.executable, "-S", "-P", warm_client.__file__, str(folder / "script.py")]
+    return [*client, str(folder / "job.log"), "3", text]
+
+
+@pytest.mark.parametrize("warm", [True, False])
+def test_a_script_run_by_the_warm_client_reads_its_job_as_snakemake_gives_it(
+    server, folder, monkeypatch, warm
+):
+    if not warm:
+        monkeypatch.delenv(SOCKET_ENV)  # no server: the client runs the script itself
+    proc = subprocess.Popen(script_job(folder), stderr=subprocess.PIPE, text=True)
+    assert proc.wait(60) == 0, proc.stderr.read()
+    seen = json.loads((folder / "seen.json").read_text())
+    # a child forked from the server, or the client itself without one
+    assert (seen["pid"] not in (proc.pid, server.process.pid)) if warm else seen["pid"] == proc.pid
+    assert seen["input"] == ["data.npz", "s0.npz", "s1.npz"]
+    assert seen["named"] == ["s0.npz", "s1.npz"] and seen["data"] == "data.npz"
+    assert seen["get"] == ["data.npz", None] and not seen["has_model"]
+    assert seen["output"] == {"seen": str(folder / "seen.json")}
+    assert seen["log"] == str(folder / "job.log") and seen["threads"] == 3
+    # number keys come back as numbers (a JSON job would have made them strings)
+    assert seen["sweeps"] == {"0.25": "duis_alpha0.25", "12": "duis"}
+    assert seen["key_types"] == ["float", "int"] and seen["seed"] == "7"
+    failed = subprocess.run(script_job(folder, fail=True), capture_output=True, timeout=60)
+    assert failed.returncode == 3
+
+
+def test_a_job_with_params_that_do_not_read_back_is_refused(tmp_path):
+    from snakemake.iocontainers import Namedlist
+
+    from spl_al.experiment import warm_client
+
+    with pytest.raises(ValueError, match="plain values"):
+        warm_client.job_text(Namedlist(), Namedlist(), Namedlist(), {"path": tmp_path})

@@ -24,9 +24,11 @@ rule initial_set:
         mem_mb=res("initial_set", "mem_mb", 1000),
         runtime=res("initial_set", "runtime", 5),
     params:
-        al=lambda w: config["datasets"][w.dataset]["al"],
-    script:
-        "../scripts/initial_set.py"
+        job=job_params(
+            al=lambda w: config["datasets"][w.dataset]["al"],
+        ),
+    shell:
+        python_job("initial_set")
 
 
 rule train_initial:
@@ -52,11 +54,13 @@ rule train_initial:
         runtime=res("train_initial", "runtime", 60),
         gpu=config["gpus_per_train_job"],
     params:
-        setup=lambda w: {"train": train_setup(config, w.dataset)},
-        device=config["device"],
-        precision=lambda w: dataset_precision(config, w.dataset),
-    script:
-        "../scripts/train_initial.py"
+        job=job_params(
+            setup=lambda w: {"train": train_setup(config, w.dataset)},
+            device=config["device"],
+            precision=lambda w: dataset_precision(config, w.dataset),
+        ),
+    shell:
+        python_job("train_initial")
 
 
 rule train:
@@ -84,12 +88,14 @@ rule train:
         runtime=res("train", "runtime", 60),
         gpu=config["gpus_per_train_job"],
     params:
-        setup=train_params,
-        score=queried_after,
-        device=config["device"],
-        precision=lambda w: dataset_precision(config, w.dataset),
-    script:
-        "../scripts/train.py"
+        job=job_params(
+            setup=train_params,
+            score=queried_after,
+            device=config["device"],
+            precision=lambda w: dataset_precision(config, w.dataset),
+        ),
+    shell:
+        python_job("train")
 
 
 rule query:
@@ -114,7 +120,11 @@ rule query:
         mem_mb=res("query", "mem_mb", 4000),
         runtime=res("query", "runtime", 30),
     params:
-        method=lambda w: dataset_method(config, w.dataset, w.method, METHODS).as_dict(),
-        batch=query_batch,
-    script:
-        "../scripts/query.py"
+        job=job_params(
+            method=lambda w: dataset_method(
+                config, w.dataset, w.method, METHODS
+            ).as_dict(),
+            batch=query_batch,
+        ),
+    shell:
+        python_job("query")

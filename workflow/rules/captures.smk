@@ -20,10 +20,12 @@ rule captures_shard:
         mem_mb=res("captures_shard", "mem_mb", 4000),
         runtime=res("captures_shard", "runtime", 30),
     params:
-        entry=lambda w: dataset_params(w.dataset),
-        sspi_weights=config["photon"].get("sspi_weights"),
-    script:
-        "../scripts/captures_shard.py"
+        job=job_params(
+            entry=lambda w: dataset_params(w.dataset),
+            sspi_weights=config["photon"].get("sspi_weights"),
+        ),
+    shell:
+        python_job("captures_shard")
 
 
 rule captures_release:
@@ -47,6 +49,8 @@ rule captures_release:
         mem_mb=res("captures_release", "mem_mb", 2000),
         runtime=res("captures_release", "runtime", 10),
     params:
-        entry=lambda w: dataset_params(w.dataset),
-    script:
-        "../scripts/captures_release.py"
+        job=job_params(
+            entry=lambda w: dataset_params(w.dataset),
+        ),
+    shell:
+        python_job("captures_release")

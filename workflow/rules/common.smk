@@ -1,6 +1,7 @@
 # Shared names and input functions; rules live in the other .smk files.
 import functools
 import shlex
+import sys
 from pathlib import Path
 
 from snakemake.logging import logger
@@ -24,6 +25,7 @@ from spl_al.data.raw_captures import (
 from spl_al.data.external import folder_has_levels
 from spl_al.photon.io import ReadOptions
 from spl_al.data.label_files import lists_training_rows
+from spl_al.experiment import warm_client
 from spl_al.experiment.warm import Server
 from spl_al.experiment.overview import jobs_line, plan_text
 from spl_al.experiment.plan import (
@@ -535,19 +537,54 @@ def robustness_outputs(dataset):
     ]
 
 
-# Warm job processes (workflow/rules/warm.smk).
+# Warm job processes (workflow/rules/warm.smk) and the scripts they run.
+
+# (not named `conda`: that word opens a rule directive for Snakemake's parser)
+PER_RULE_ENVS = DeploymentMethod.CONDA in workflow.deployment_settings.deployment_method
+# A job's Python: this run's own, or its rule's conda environment's.
+JOB_PYTHON = "python" if PER_RULE_ENVS else sys.executable
+SCRIPTS = str(Path(workflow.basedir) / "workflow" / "scripts")
+WARM_CLIENT = warm_client.__file__
+
+
+def python_job(script):
+    """The shell command that runs workflow/scripts/SCRIPT.py as a job. The warm
+    client (spl_al/experiment/warm_client.py, standard library only, so the job's own
+    process starts in ~0.03 CPU-s instead of the ~0.25 of Snakemake's `script:`)
+    hands the script to the warm server, or runs it itself without one. The script
+    reads its job from `snakemake` as usual: the rule's `params` must be
+    `job=job_params(...)`."""
+    # Paths by name, filled in when the job runs: the rule's recorded command (what
+    # Snakemake's "code changed" compares) stays the same when the checkout or the
+    # Python environment moves.
+    return (
+        "{JOB_PYTHON:q} -S -P {WARM_CLIENT:q} {SCRIPTS:q}/" + script + ".py"
+        " {log:q} {threads} {params.job:q}"
+    )
+
+
+def job_params(**params):
+    """The `params: job=job_params(NAME=VALUE, ...)` that `python_job` needs. Each
+    value, or function of the job's wildcards, evaluated for the job and written as
+    one Python literal with the job's input, output and wildcards; the script reads it
+    back as `snakemake.params.NAME`, `snakemake.input.NAME`, ..."""
+
+    def job(wildcards, input, output):
+        values = {
+            name: value(wildcards) if callable(value) else value
+            for name, value in params.items()
+        }
+        return warm_client.job_text(input, output, wildcards, values)
+
+    return job
 
 
 _warm = {}
 
 
 def start_warm_worker():
-    # (not named `conda`: that word opens a rule directive for Snakemake's parser)
-    per_rule_envs = (
-        DeploymentMethod.CONDA in workflow.deployment_settings.deployment_method
-    )
     enabled = (
-        config.get("warm_worker", True) and workflow.local_exec and not per_rule_envs
+        config.get("warm_worker", True) and workflow.local_exec and not PER_RULE_ENVS
     )
     server = Server.for_run(f"{RESULTS}/logs/warm_server.log", enabled=enabled)
     if server:

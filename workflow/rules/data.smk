@@ -17,10 +17,12 @@ rule dataset:
         mem_mb=res("dataset", "mem_mb", 4000),
         runtime=res("dataset", "runtime", 30),
     params:
-        entry=lambda w: dataset_params(w.dataset),
-        release=lambda w: capture_release(w.dataset) or None,
-    script:
-        "../scripts/make_dataset.py"
+        job=job_params(
+            entry=lambda w: dataset_params(w.dataset),
+            release=lambda w: capture_release(w.dataset) or None,
+        ),
+    shell:
+        python_job("make_dataset")
 
 
 rule variants_shard:
@@ -39,10 +41,12 @@ rule variants_shard:
         mem_mb=res("variants_shard", "mem_mb", 2000),
         runtime=res("variants_shard", "runtime", 30),
     params:
-        variants=lambda w: config["datasets"][w.dataset]["variants"],
-        sspi_weights=config["photon"].get("sspi_weights"),
-    script:
-        "../scripts/variants_shard.py"
+        job=job_params(
+            variants=lambda w: config["datasets"][w.dataset]["variants"],
+            sspi_weights=config["photon"].get("sspi_weights"),
+        ),
+    shell:
+        python_job("variants_shard")
 
 
 rule variants_merge:
@@ -64,8 +68,10 @@ rule variants_merge:
     resources:
         mem_mb=res("variants_merge", "mem_mb", 4000),
         runtime=res("variants_merge", "runtime", 10),
-    script:
-        "../scripts/variants_merge.py"
+    params:
+        job=job_params(),
+    shell:
+        python_job("variants_merge")
 
 
 rule data_pictures:
@@ -94,5 +100,7 @@ rule data_pictures:
     resources:
         mem_mb=res("data_pictures", "mem_mb", 2000),
         runtime=res("data_pictures", "runtime", 10),
-    script:
-        "../scripts/data_pictures.py"
+    params:
+        job=job_params(),
+    shell:
+        python_job("data_pictures")

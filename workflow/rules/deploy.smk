@@ -21,9 +21,11 @@ rule model_card:
         mem_mb=res("model_card", "mem_mb", 2000),
         runtime=res("model_card", "runtime", 10),
     params:
-        facts=card_facts,
-    script:
-        "../scripts/model_card.py"
+        job=job_params(
+            facts=card_facts,
+        ),
+    shell:
+        python_job("model_card")
 
 
 rule export_onnx:
@@ -46,6 +48,8 @@ rule export_onnx:
         mem_mb=res("export_onnx", "mem_mb", 4000),
         runtime=res("export_onnx", "runtime", 20),
     params:
-        device=config["device"],
-    script:
-        "../scripts/export_onnx.py"
+        job=job_params(
+            device=config["device"],
+        ),
+    shell:
+        python_job("export_onnx")

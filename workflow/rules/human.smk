@@ -25,10 +25,12 @@ rule initial_set_human:
         mem_mb=res("initial_set_human", "mem_mb", 1000),
         runtime=res("initial_set_human", "runtime", 5),
     params:
-        al=lambda w: config["datasets"][w.dataset]["al"],
-        seed_labels=lambda w: config["datasets"][w.dataset].get("seed_labels"),
-    script:
-        "../scripts/initial_set_human.py"
+        job=job_params(
+            al=lambda w: config["datasets"][w.dataset]["al"],
+            seed_labels=lambda w: config["datasets"][w.dataset].get("seed_labels"),
+        ),
+    shell:
+        python_job("initial_set_human")
 
 
 rule query_human:
@@ -53,10 +55,14 @@ rule query_human:
         mem_mb=res("query_human", "mem_mb", 4000),
         runtime=res("query_human", "runtime", 30),
     params:
-        method=lambda w: dataset_method(config, w.dataset, w.method, METHODS).as_dict(),
-        batch=query_batch,
-    script:
-        "../scripts/query.py"
+        job=job_params(
+            method=lambda w: dataset_method(
+                config, w.dataset, w.method, METHODS
+            ).as_dict(),
+            batch=query_batch,
+        ),
+    shell:
+        python_job("query")
 
 
 rule to_label_initial:
@@ -78,12 +84,14 @@ rule to_label_initial:
         mem_mb=res("to_label_initial", "mem_mb", 2000),
         runtime=res("to_label_initial", "runtime", 10),
     params:
-        labels_file=lambda w: initial_labels_file(w.dataset, w.seed),
-        export_file=lambda w: initial_labels_export(w.dataset, w.seed),
-        model_cfg=None,
-        model_version="",
-    script:
-        "../scripts/label_batch.py"
+        job=job_params(
+            labels_file=lambda w: initial_labels_file(w.dataset, w.seed),
+            export_file=lambda w: initial_labels_export(w.dataset, w.seed),
+            model_cfg=None,
+            model_version="",
+        ),
+    shell:
+        python_job("label_batch")
 
 
 rule to_label_round:
@@ -107,12 +115,16 @@ rule to_label_round:
         mem_mb=res("to_label_round", "mem_mb", 2000),
         runtime=res("to_label_round", "runtime", 10),
     params:
-        labels_file=labels_file,
-        export_file=labels_export,
-        model_cfg=lambda w: config["datasets"][w.dataset]["train"].get("model", {}),
-        model_version=lambda w: f"{w.method} seed{w.seed} round{int(w.round) - 1}",
-    script:
-        "../scripts/label_batch.py"
+        job=job_params(
+            labels_file=labels_file,
+            export_file=labels_export,
+            model_cfg=lambda w: config["datasets"][w.dataset]["train"].get(
+                "model", {}
+            ),
+            model_version=lambda w: f"{w.method} seed{w.seed} round{int(w.round) - 1}",
+        ),
+    shell:
+        python_job("label_batch")
 
 
 rule accept_labels:
@@ -138,7 +150,9 @@ rule accept_labels:
         mem_mb=res("accept_labels", "mem_mb", 2000),
         runtime=res("accept_labels", "runtime", 5),
     params:
-        labels_file=labels_file,
-        export_file=labels_export,
-    script:
-        "../scripts/accept_labels.py"
+        job=job_params(
+            labels_file=labels_file,
+            export_file=labels_export,
+        ),
+    shell:
+        python_job("accept_labels")

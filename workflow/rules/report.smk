@@ -37,13 +37,15 @@ rule table:
         mem_mb=res("table", "mem_mb", 2000),
         runtime=res("table", "runtime", 10),
     params:
-        experiments=lambda w: experiments_of(config, w.dataset, METHODS),
-        sweeps=lambda w: sweep_table_spec(
-            config, config["datasets"][w.dataset]["variants"]["n"]
+        job=job_params(
+            experiments=lambda w: experiments_of(config, w.dataset, METHODS),
+            sweeps=lambda w: sweep_table_spec(
+                config, config["datasets"][w.dataset]["variants"]["n"]
+            ),
+            notes=lambda w: training_notes(config, w.dataset),
         ),
-        notes=lambda w: training_notes(config, w.dataset),
-    script:
-        "../scripts/table.py"
+    shell:
+        python_job("table")
 
 
 rule curves:
@@ -68,13 +70,15 @@ rule curves:
         mem_mb=res("curves", "mem_mb", 2000),
         runtime=res("curves", "runtime", 10),
     params:
-        methods=lambda w: experiments_of(config, w.dataset, METHODS)["budget"][
-            "methods"
-        ],
-        levels=False,
-        families=lambda w: budget_families(config, w.dataset, METHODS),
-    script:
-        "../scripts/curves.py"
+        job=job_params(
+            methods=lambda w: experiments_of(config, w.dataset, METHODS)["budget"][
+                "methods"
+            ],
+            levels=False,
+            families=lambda w: budget_families(config, w.dataset, METHODS),
+        ),
+    shell:
+        python_job("curves")
 
 
 # Only for datasets whose images have MSPPP levels (see has_levels in common.smk).
@@ -120,10 +124,12 @@ rule summary:
         mem_mb=res("summary", "mem_mb", 2000),
         runtime=res("summary", "runtime", 10),
     params:
-        notes=lambda w: dataset_notes(w.dataset),
-        families=lambda w: budget_families(config, w.dataset, METHODS),
-    script:
-        "../scripts/summary.py"
+        job=job_params(
+            notes=lambda w: dataset_notes(w.dataset),
+            families=lambda w: budget_families(config, w.dataset, METHODS),
+        ),
+    shell:
+        python_job("summary")
 
 
 rule run_config:
@@ -140,9 +146,11 @@ rule run_config:
         mem_mb=res("run_config", "mem_mb", 500),
         runtime=res("run_config", "runtime", 5),
     params:
-        config=config,
-    script:
-        "../scripts/run_config.py"
+        job=job_params(
+            config=config,
+        ),
+    shell:
+        python_job("run_config")
 
 
 rule stats:
@@ -188,9 +196,11 @@ rule stats:
         mem_mb=res("stats", "mem_mb", 2000),
         runtime=res("stats", "runtime", 10),
     params:
-        experiments=lambda w: experiments_of(config, w.dataset, METHODS),
-        sweeps=lambda w: sweep_table_spec(
-            config, config["datasets"][w.dataset]["variants"]["n"]
+        job=job_params(
+            experiments=lambda w: experiments_of(config, w.dataset, METHODS),
+            sweeps=lambda w: sweep_table_spec(
+                config, config["datasets"][w.dataset]["variants"]["n"]
+            ),
         ),
-    script:
-        "../scripts/stats.py"
+    shell:
+        python_job("stats")

@@ -25,9 +25,11 @@ rule robustness_grid:
         mem_mb=res("robustness_grid", "mem_mb", 3000),
         runtime=res("robustness_grid", "runtime", 30),
     params:
-        grid=lambda w: robustness_grid(w.dataset),
-    script:
-        "../scripts/robustness_grid.py"
+        job=job_params(
+            grid=lambda w: robustness_grid(w.dataset),
+        ),
+    shell:
+        python_job("robustness_grid")
 
 
 rule robustness_eval:
@@ -49,17 +51,19 @@ rule robustness_eval:
         runtime=res("robustness_eval", "runtime", 30),
         gpu=config["gpus_per_train_job"],
     params:
-        model=lambda w: config["datasets"][w.dataset]["train"]["model"],
-        precision=lambda w: dataset_precision(config, w.dataset),
-        names=lambda w: {
-            "dataset": w.dataset,
-            "method": w.method,
-            "seeds": budget_experiment(w.dataset)["seeds"],
-            "round": int(budget_experiment(w.dataset)["rounds"]) - 1,
-        },
-        device=config["device"],
-    script:
-        "../scripts/robustness_eval.py"
+        job=job_params(
+            model=lambda w: config["datasets"][w.dataset]["train"]["model"],
+            precision=lambda w: dataset_precision(config, w.dataset),
+            names=lambda w: {
+                "dataset": w.dataset,
+                "method": w.method,
+                "seeds": budget_experiment(w.dataset)["seeds"],
+                "round": int(budget_experiment(w.dataset)["rounds"]) - 1,
+            },
+            device=config["device"],
+        ),
+    shell:
+        python_job("robustness_eval")
 
 
 rule robustness_report:
@@ -96,5 +100,7 @@ rule robustness_report:
     resources:
         mem_mb=res("robustness_report", "mem_mb", 2000),
         runtime=res("robustness_report", "runtime", 10),
-    script:
-        "../scripts/robustness_report.py"
+    params:
+        job=job_params(),
+    shell:
+        python_job("robustness_report")

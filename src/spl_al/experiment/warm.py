@@ -32,7 +32,6 @@ which); otherwise it starts its own as usual.
 from __future__ import annotations
 
 import argparse
-import contextlib
 import importlib
 import json
 import os
@@ -40,7 +39,6 @@ import pickle
 import shutil
 import signal
 import socket
-import struct
 import subprocess
 import sys
 import tempfile
@@ -50,9 +48,15 @@ import traceback
 from pathlib import Path
 
 from spl_al.experiment.joblog import job_log
-
-SOCKET_ENV = "SPL_AL_WARM_SOCKET"
-"""Environment variable naming the server's socket; jobs inherit it from Snakemake."""
+from spl_al.experiment.warm_client import (
+    CODE,
+    LENGTH,
+    SOCKET_ENV,
+    Job,
+    recv_exactly,
+    run_in_server,
+    run_script,
+)
 
 PRELOAD = (
     "numpy",
@@ -76,9 +80,6 @@ PRELOAD = (
 )
 """What the server imports once: everything a step of the workflow imports."""
 
-_LENGTH = struct.Struct("!Q")
-_CODE = struct.Struct("!i")
-
 
 def resolve(target: str):
     """The function named ``"package.module:function"``."""
@@ -89,9 +90,13 @@ def resolve(target: str):
 
 
 def execute(request: dict) -> None:
-    """Run one job in this process: ``target(**kwargs)`` inside ``job_log`` (its output
-    to the log file, ``compute_seconds`` last), with the open log as ``log=`` when
-    ``pass_log``, and its return value printed to the log when ``show``."""
+    """Run one job in this process: a workflow script with its job's ``snakemake``
+    object (a request of ``warm_client``), or ``target(**kwargs)`` inside ``job_log``
+    (its output to the log file, ``compute_seconds`` last), with the open log as
+    ``log=`` when ``pass_log``, and its return value printed to the log when ``show``."""
+    if "script" in request:
+        run_script(request["script"], Job(*request["job"]))
+        return
     func = resolve(request["target"])
     with job_log(request["log_path"], preload=request.get("preload", ())) as log:
         extra = {"log": log} if request.get("pass_log") else {}
@@ -135,54 +140,11 @@ def run_job(
         "show": show,
     }
     address = os.environ.get(SOCKET_ENV)
-    code = _run_in_server(address, request) if address else None
+    code = run_in_server(address, request) if address else None
     if code is None:
         execute(request)
     elif code != 0:
         sys.exit(code)
-
-
-# ---------------------------------------------------------------- client
-
-
-def _recv_exactly(conn: socket.socket, n: int) -> bytes | None:
-    data = b""
-    while len(data) < n:
-        chunk = conn.recv(n - len(data))
-        if not chunk:
-            return None
-        data += chunk
-    return data
-
-
-def _run_in_server(address: str, request: dict) -> int | None:
-    """The job's exit code from a warm child, or None when no server answers."""
-    conn = socket.socket(socket.AF_UNIX, socket.SOCK_STREAM)
-    try:
-        conn.connect(address)
-    except OSError:
-        conn.close()
-        return None
-    with conn:
-        request = {**request, "cwd": os.getcwd(), "env": dict(os.environ)}
-        payload = pickle.dumps(request)
-        sys.stdout.flush()
-        sys.stderr.flush()
-        socket.send_fds(conn, [_LENGTH.pack(len(payload))], [0, 1, 2])
-        conn.sendall(payload)
-        head = _recv_exactly(conn, _CODE.size)
-        if head is None:
-            return None  # the server went away before forking: run here
-        (pid,) = _CODE.unpack(head)
-
-        def forward(signum, _frame):
-            with contextlib.suppress(ProcessLookupError):
-                os.kill(pid, signum)
-
-        for signum in (signal.SIGTERM, signal.SIGINT, signal.SIGHUP):
-            signal.signal(signum, forward)
-        tail = _recv_exactly(conn, _CODE.size)
-        return 1 if tail is None else _CODE.unpack(tail)[0]
 
 
 # ---------------------------------------------------------------- server
@@ -193,15 +155,16 @@ def _child(conn: socket.socket) -> None:
     run the job, send its exit code, exit. Never returns."""
     code = 1
     try:
-        msg, fds, _, _ = socket.recv_fds(conn, _LENGTH.size, 3)
+        msg, fds, _, _ = socket.recv_fds(conn, LENGTH.size, 3)
         for target_fd, fd in enumerate(fds):
             os.dup2(fd, target_fd)
             os.close(fd)
-        request = pickle.loads(_recv_exactly(conn, _LENGTH.unpack(msg)[0]))
+        request = pickle.loads(recv_exactly(conn, LENGTH.unpack(msg)[0]))
         os.chdir(request["cwd"])
         os.environ.clear()
         os.environ.update(request["env"])
-        conn.sendall(_CODE.pack(os.getpid()))
+        os.environ.pop(SOCKET_ENV, None)  # the script's run_job runs here, not in a grandchild
+        conn.sendall(CODE.pack(os.getpid()))
 
         def watch_client():  # the client died (killed by Snakemake): so does the job
             if not conn.recv(1):
@@ -219,7 +182,7 @@ def _child(conn: socket.socket) -> None:
         sys.stdout.flush()
         sys.stderr.flush()
         try:
-            conn.sendall(_CODE.pack(code))
+            conn.sendall(CODE.pack(code))
         finally:
             os._exit(code)
 
