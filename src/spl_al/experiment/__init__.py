@@ -2,5 +2,8 @@
 
 - ``plan``: methods (named strategy entries), generated sensitivity sweeps, and the
   (method, seed, rounds) runs each dataset's experiments need. Light: no torch.
-- ``steps``: the functions the workflow's scripts call, one per rule.
+- ``data_steps``, ``round_steps``, ``report_steps``, ``deploy_steps``, ``human``: the
+  functions the workflow's scripts call, one per rule.
+- ``warm`` and ``warm_client``: how a job runs (a child forked from one warm process,
+  started by a standard-library client), and ``joblog``: its log.
 """
