@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import os
+import re
 import shutil
 import subprocess
 from pathlib import Path
@@ -104,3 +105,16 @@ def test_real_capture_pictures_take_npy_and_hdf5_cubes_with_the_configured_timin
     assert run.returncode != 0
     assert "a.npy: a count cube that states no bin width" in run.stderr
     assert "set photon.real_capture_options.bin_width_ps" in run.stderr
+
+
+def test_every_script_runs_through_the_warm_client():
+    """A rule that runs a workflow script does it with `shell: python_job(NAME)`:
+    Snakemake's `script:` would import Snakemake in every job's process (~0.25 CPU-s a
+    job); each named script exists, and no script is left without a rule."""
+    rules = "\n".join(p.read_text() for p in sorted((ROOT / "workflow" / "rules").glob("*.smk")))
+    assert not re.search(r"^\s+script:", rules, re.MULTILINE)
+    named = re.findall(r'python_job\("(\w+)"\)', rules)
+    scripts = {p.stem for p in (ROOT / "workflow" / "scripts").glob("*.py")}
+    assert sorted(set(named)) == sorted(scripts)  # (curves and query serve two rules each)
+    # every such rule hands its params over as the job (python_job's command reads them)
+    assert rules.count("job=job_params(") == len(named)
