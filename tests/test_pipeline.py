@@ -127,6 +127,9 @@ def test_every_table_has_its_rows_columns_and_ranges(ci_results):
         for name in ("curves.png", "level_curves.png", "contact_sheet.png", "variants_sheet.png"):
             assert (figures / name).read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
         assert (figures / "curves.pdf").read_bytes()[:4] == b"%PDF"
+        # one panel per MSPPP level, not the budget curves again
+        curves = (figures / "curves.png").read_bytes()
+        assert (figures / "level_curves.png").read_bytes() != curves
 
 
 def test_the_run_records_the_ci_config_with_the_defaults_it_does_not_name(ci_results):

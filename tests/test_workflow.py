@@ -116,5 +116,11 @@ def test_every_script_runs_through_the_warm_client():
     named = re.findall(r'python_job\("(\w+)"\)', rules)
     scripts = {p.stem for p in (ROOT / "workflow" / "scripts").glob("*.py")}
     assert sorted(set(named)) == sorted(scripts)  # (curves and query serve two rules each)
-    # every such rule hands its params over as the job (python_job's command reads them)
-    assert len(re.findall(r"^\s+job=job_params\(", rules, re.MULTILINE)) == len(named)
+    # every such rule hands its params over as the job (python_job's command reads them
+    # and nothing else), a rule derived with `use rule ... with:` included
+    assert len(re.findall(r"^\s+job=job_params\(", rules, re.MULTILINE)) >= len(named)
+    blocks = re.split(r"^(?=rule |use rule )", rules, flags=re.MULTILINE)
+    jobs = [b for b in blocks if "python_job(" in b or b.startswith("use rule ")]
+    for block in jobs:
+        params = re.search(r"^\s+params:\n\s+(\S[^\n]*)", block, re.MULTILINE)
+        assert params is None or params[1].startswith("job=job_params("), block

@@ -96,11 +96,13 @@ use rule curves as level_curves with:
     benchmark:
         f"{RESULTS}/benchmarks/{{dataset}}/level_curves.tsv"
     params:
-        methods=lambda w: experiments_of(config, w.dataset, METHODS)["budget"][
-            "methods"
-        ],
-        levels=True,
-        families=lambda w: budget_families(config, w.dataset, METHODS),
+        job=job_params(
+            methods=lambda w: experiments_of(config, w.dataset, METHODS)["budget"][
+                "methods"
+            ],
+            levels=True,
+            families=lambda w: budget_families(config, w.dataset, METHODS),
+        ),
 
 
 rule summary:
