@@ -13,6 +13,7 @@ from spl_al.experiment.round_steps import (
     Compute,
     ModelFiles,
     RoundId,
+    save_model,
     train_initial,
     train_round,
     write_initial_set,
@@ -166,3 +167,16 @@ def test_a_warm_start_fine_tunes_the_previous_rounds_weights_with_its_own_steps(
     assert cold["train_steps"] == 2
     fresh = torch.load(tmp_path / "c1.pt", weights_only=True)
     assert not all(torch.equal(before[k], fresh[k]) for k in float_keys)
+
+
+def test_the_same_weights_save_to_the_same_bytes(tmp_path):
+    """A model card's sha256 names the weights: a rerun that trains the same weights
+    must write the same file, whatever temporary name the atomic write used."""
+    torch.manual_seed(0)
+    model = torch.nn.Linear(3, 2)
+    save_model(model, tmp_path / "a" / "model.pt")
+    save_model(model, tmp_path / "b" / "model.pt")
+    first = (tmp_path / "a" / "model.pt").read_bytes()
+    assert first == (tmp_path / "b" / "model.pt").read_bytes()
+    state = torch.load(tmp_path / "a" / "model.pt", weights_only=True)
+    assert torch.equal(state["weight"], model.weight.detach())

@@ -95,11 +95,21 @@ def load_model(dataset, model_cfg: dict, weights):
 
 
 def save_model(model, path) -> None:
-    """Save the model's weights (state dict) atomically."""
+    """Save the model's weights (state dict) atomically, the same weights to the same bytes.
+
+    torch.save names the archive's inner folder after a path it is given, which here
+    would be the random temporary name: saving through a file object keeps it fixed,
+    so a model card's sha256 identifies the weights across reruns.
+    """
     import torch
 
     state = model.state_dict()
-    atomic_write(path, lambda tmp: torch.save(state, tmp))
+
+    def write(tmp):
+        with open(tmp, "wb") as f:
+            torch.save(state, f)
+
+    atomic_write(path, write)
 
 
 @dataclass
