@@ -215,7 +215,7 @@ def test_pages_generator_gives_a_second_run_its_own_page_and_figures(tmp_path):
 
     text = readme.read_text()
     assert text.startswith(default_block)  # the default run's block is not touched
-    assert "\nold\n" not in text and "| DUIS | 31.0 ± 1.5 |" in text
+    assert "\nold\n" not in text and "| DUIS | 40.0 [35.0, 45.0] |" in text
     assert "[docs/decisive.md](docs/decisive.md)" in text
     page = (docs / "decisive.md").read_text()
     assert "(figures/decisive_real_cls_budget.png)" in page
@@ -288,3 +288,38 @@ def test_readme_table_shows_the_matched_family_first_and_the_aubc_range(tmp_path
         "The paper's claims: 1 seeds agree (untested) (of 1). Extensions: 1 seeds against "
         "(untested) (of 1). Seeds against (untested): Extension claim."
     )
+
+
+def test_a_second_runs_readme_block_is_one_aubc_table_of_every_dataset(tmp_path):
+    """The decisive block stays short as datasets are added: one AUBC row per method,
+    a column per dataset with its range and seeds, "-" where a run lacks the method,
+    the matched family first; the budget columns stay on the page."""
+    results = tmp_path / "results-decisive"
+    _fake_dataset(results, "real_cls", "accuracy", True)
+    _fake_dataset(results, "street_seg", "miou", False)
+    tables = results / "real_cls" / "tables"
+    budget = list(csv.DictReader((tables / "budget.csv").open()))
+    twin = [dict(r, method="syn_random", row="Syn+Random", row_pos=2) for r in budget[:2]]
+    _write_csv(tables / "budget.csv", budget + twin)
+    summary = json.loads((tables / "summary.json").read_text())
+    summary["methods"]["syn_random"] = {"aubc": {"mean": 0.6, "ci_low": 0.5, "ci_high": 0.7}}
+    for entry in summary["methods"].values():
+        entry["aubc"]["span"] = "rounds 1-1 (4.0%)"
+    summary["families"] = {"paper": ["random", "duis"], "matched": ["syn_random", "duis"]}
+    (tables / "summary.json").write_text(json.dumps(summary))
+
+    lines = pages.aubc_overview(results)
+    assert lines[0] == (
+        "| Method | real_cls (accuracy, 3 seeds): rounds 1-1 (4.0%) | street_seg (mIoU, 3 seeds) |"
+    )
+    assert lines[2:] == [
+        "| *matched training (every method trained on the variants)* | | |",
+        "| Syn+Random | 60.0 [50.0, 70.0] | - |",
+        "| DUIS | 40.0 [35.0, 45.0] | 40.0 [35.0, 45.0] |",
+        "| *as the paper compares (baselines on observed images only)* | | |",
+        "| Random | 40.0 [35.0, 45.0] | 40.0 [35.0, 45.0] |",
+    ]
+    block = pages.readme_block(results, "decisive")
+    assert "\n".join(lines) in block and "Bold:" not in block and "31.0 ± 1.5" not in block
+    assert "**real_cls** (3 seeds; synthetic stand-in for real data). The paper's" in block
+    assert "**street_seg** (3 seeds). The paper's claims: 1 supported" in block
