@@ -558,7 +558,7 @@ def python_job(script):
     # Snakemake's "code changed" compares) stays the same when the checkout or the
     # Python environment moves.
     return (
-        "{JOB_PYTHON:q} -S -P {WARM_CLIENT:q} {SCRIPTS:q}/" + script + ".py"
+        f"{{JOB_PYTHON:q}} -S -P {{WARM_CLIENT:q}} {{SCRIPTS:q}}/{script}.py"
         " {log:q} {threads} {params.job:q}"
     )
 
