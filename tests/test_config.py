@@ -94,9 +94,12 @@ def test_every_shipped_override_is_a_valid_config(name):
 
 
 def test_decisive_config_extends_the_default_run_of_real_cls():
-    """The decisive run's seeds 1-3 are the default run's own data, recipe and labeled
-    sets: only more seeds, every baseline of the paper, the two low-budget baselines
-    and the paper's fourth round (80 labeled)."""
+    """The decisive run of real_cls is the default run's data, recipe and first seeds,
+    at 24 seeds over the paper's fourth round (80 labeled), with the matched twin of
+    every baseline of the paper and of the two low-budget baselines, and Random on
+    observed images (the base of the decomposition)."""
+    from spl_al.experiment.plan import experiments_of
+
     default, decisive = _merged(), _merged("decisive.yaml")
     assert list(decisive["datasets"]) == ["real_cls"]
     assert decisive["results"] != default["results"]
@@ -104,11 +107,12 @@ def test_decisive_config_extends_the_default_run_of_real_cls():
     for key in ("synthesis", "variants", "al", "train", "task", "source"):
         assert ours[key] == theirs[key], key
     budget, base = ours["experiments"]["budget"], theirs["experiments"]["budget"]
-    assert len(budget["seeds"]) == len(set(budget["seeds"])) >= 16
+    assert len(budget["seeds"]) == len(set(budget["seeds"])) == 24
     assert budget["seeds"][:3] == base["seeds"]
-    assert set(base["methods"]) < set(budget["methods"])
-    paper = {"random", "entropy", "margin", "coreset", "badge", "duis"}
-    assert paper | {"syn_diversity", "syn_typiclust", "syn_probcover"} == set(budget["methods"])
+    matched = {f"syn_{m}" for m in ("random", "entropy", "margin", "coreset", "badge")}
+    low_budget = {"syn_typiclust", "syn_probcover"}
+    planned = set(experiments_of(decisive, "real_cls")["budget"]["methods"])
+    assert planned == matched | low_budget | {"random", "syn_diversity", "duis"}
     assert budget["matched"] and budget["rounds"] == base["rounds"] + 1
     assert set(ours["experiments"]["ablation"]["seeds"]) <= set(budget["seeds"])
     assert decisive["methods"] == default["methods"]
