@@ -323,3 +323,43 @@ def test_a_second_runs_readme_block_is_one_aubc_table_of_every_dataset(tmp_path)
     assert "\n".join(lines) in block and "Bold:" not in block and "31.0 ± 1.5" not in block
     assert "**real_cls** (3 seeds; synthetic stand-in for real data). The paper's" in block
     assert "**street_seg** (3 seeds). The paper's claims: 1 supported" in block
+
+
+def test_keep_absent_updates_one_dataset_of_a_shared_page(tmp_path):
+    """A decisive run of one dataset, made in a folder of its own, rewrites that
+    dataset's section, README column and verdicts and keeps the others' as they were;
+    without --keep-absent the page holds only the folder's datasets."""
+    first, second = tmp_path / "first", tmp_path / "second"
+    _fake_dataset(first, "real_cls", "accuracy", True)
+    _fake_dataset(first, "synth_cls", "accuracy", False)
+    _fake_dataset(second, "real_cls", "accuracy", True)
+    summary_path = second / "real_cls" / "tables" / "summary.json"
+    summary = json.loads(summary_path.read_text())
+    summary["methods"]["duis"]["aubc"] = {"mean": 0.7, "ci_low": 0.65, "ci_high": 0.75}
+    summary_path.write_text(json.dumps(summary))
+    (second / "real_cls" / "tables" / "budget.md").write_text("**budget of real_cls, 24**\n")
+    docs = tmp_path / "docs"
+    docs.mkdir()
+    (docs / "decisive.md").write_text("# D\n\n<!-- results:start -->\n<!-- results:end -->\n")
+    readme = tmp_path / "README.md"
+    readme.write_text("intro\n\n<!-- decisive:start -->\n<!-- decisive:end -->\n\nend\n")
+
+    def run(results, *extra):
+        argv = [str(results), "--docs", str(docs), "--readme", str(readme)]
+        assert pages.main([*argv, "--page", "decisive", *extra]) == 0
+        return (docs / "decisive.md").read_text(), readme.read_text()
+
+    page, text = run(first)
+    synth_section = pages.page_sections(page)["synth_cls"]
+    synth_verdicts = pages.readme_chunks(text)["synth_cls"]
+    page, text = run(second, "--keep-absent")
+    assert "**budget of real_cls, 24**" in page and "**budget of real_cls**" not in page
+    assert pages.page_sections(page)["synth_cls"] == synth_section
+    assert page.index("## real_cls") < page.index("## synth_cls")
+    assert "--keep-absent` (tables of" in page and "; synth_cls kept from an earlier run)" in page
+    assert "| DUIS | 70.0 [65.0, 75.0] | 40.0 [35.0, 45.0] |" in text
+    assert pages.readme_chunks(text)["synth_cls"] == synth_verdicts
+    assert text.startswith("intro\n\n") and text.endswith("<!-- decisive:end -->\n\nend\n")
+
+    page, text = run(second)
+    assert "## synth_cls" not in page and "synth_cls" not in text

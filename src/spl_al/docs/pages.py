@@ -18,7 +18,10 @@ Its README block is shorter: one table of every dataset's AUBC per method (the b
 columns are on its page), then each dataset's verdicts.
 
 Text outside the markers (the hand-written reading of a run, the statistics section)
-is left untouched. Run it from the repository root:
+is left untouched. With ``--keep-absent`` the datasets the folder does not hold keep
+what the blocks said of them (their page section, README lines and AUBC column), so
+runs of one dataset each, made in different folders or on different days, share a page.
+Run it from the repository root:
 
     python -m spl_al.docs.pages results/
 """
@@ -34,7 +37,7 @@ import sys
 from datetime import UTC, datetime
 from pathlib import Path
 
-from spl_al.docs.markers import markers, replace_block
+from spl_al.docs.markers import block, markers, replace_block
 
 COMMAND = "python -m spl_al.docs.pages"
 BLOCK = "results"
@@ -65,10 +68,73 @@ VERDICTS = (
 NAMED = ("supported", "contradicted", "seeds against (untested)")
 
 
+def _in_order(names) -> list[str]:
+    """``names`` in ORDER first, then the others alphabetically."""
+    names = set(names)
+    return [d for d in ORDER if d in names] + sorted(names - set(ORDER))
+
+
 def datasets(results: Path) -> list[str]:
     """Datasets of a results folder: the folders that hold tables/budget.csv."""
-    found = sorted(p.parent.parent.name for p in results.glob("*/tables/budget.csv"))
-    return [d for d in ORDER if d in found] + [d for d in found if d not in ORDER]
+    return _in_order(p.parent.parent.name for p in results.glob("*/tables/budget.csv"))
+
+
+def page_sections(block: str) -> dict[str, str]:
+    """{dataset: its section} of a generated page block: the text from each
+    ``## dataset`` line to the next (the block's first comment line left out)."""
+    sections: dict[str, list[str]] = {}
+    current = None
+    for line in block.split("\n"):
+        if line.startswith("## "):
+            current = line[3:].strip()
+            sections[current] = []
+        if current is not None:
+            sections[current].append(line)
+    return {name: "\n".join(lines).rstrip() for name, lines in sections.items()}
+
+
+def readme_chunks(block: str) -> dict[str, str]:
+    """{dataset: its lines} of a generated README block: each paragraph or table that
+    starts with ``**dataset**`` (up to the next one, the legend or the end)."""
+    chunks: dict[str, list[str]] = {}
+    current = None
+    for line in block.split("\n"):
+        if line.startswith("**") and "**" in line[2:] and not line.startswith("**Area"):
+            name = line[2 : line.index("**", 2)]
+            current = name if " " not in name else None
+            if current:
+                chunks[current] = []
+        elif line.startswith(("Bold:", "The rule behind")):
+            current = None
+        if current is not None:
+            chunks[current].append(line)
+    return {name: "\n".join(lines).rstrip() for name, lines in chunks.items()}
+
+
+Column = tuple[str, dict[str, str], dict[str, str]]
+"""One dataset's column of an AUBC overview: (header, {row label: cell}, {row label:
+family key})."""
+
+
+def overview_columns(block: str) -> dict[str, Column]:
+    """{dataset: its column} of the AUBC overview table in a second run's README block."""
+    lines = [line for line in block.split("\n") if line.startswith("| ")]
+    if not lines or not lines[0].startswith("| Method |"):
+        return {}
+    headers = [c.strip() for c in lines[0].strip("|").split("|")][1:]
+    names = [h.split(" (")[0] for h in headers]
+    columns: dict[str, Column] = {n: (h, {}, {}) for n, h in zip(names, headers, strict=True)}
+    family = "paper"
+    for line in lines[1:]:
+        cells = [c.strip() for c in line.strip().strip("|").split("|")]
+        if cells[0].startswith("*") and cells[0].endswith("*"):
+            family = "matched" if cells[0].startswith("*matched") else "paper"
+            continue
+        for name, cell in zip(names, cells[1:], strict=False):
+            if cell != "-":
+                columns[name][1][cells[0]] = cell
+                columns[name][2][cells[0]] = family
+    return columns
 
 
 def _rows(path: Path) -> list[dict]:
@@ -216,30 +282,42 @@ def _heading(results: Path, dataset: str) -> str:
     return text
 
 
-def aubc_overview(results: Path) -> list[str]:
+def _column(results: Path, dataset: str) -> Column:
+    """A dataset's column of the AUBC overview, rows in its families' order."""
+    budget = _rows(results / dataset / "tables" / "budget.csv")
+    summary = _summary(results, dataset)
+    scale = _num(budget[0].get("scale", 100)) if budget else 100.0
+    order = sorted({(int(r["row_pos"]), r["row"], r["method"]) for r in budget})
+    methods = [method for _, _, method in order]
+    label = {method: row for _, row, method in order}
+    groups = [family for _, family in _families(summary, methods)]
+    keys = ["matched", "paper"] if len(groups) == 2 else ["paper"]
+    family_of = {label[m]: key for key, group in zip(keys, groups, strict=True) for m in group}
+    cells = {label[m]: _aubc(summary, m, scale) for group in groups for m in group}
+    span = _span(summary, methods).strip()
+    header = f"{dataset} ({_metric(budget)}, {_seeds(summary, budget)})"
+    return (f"{header}: {span}" if span else header), cells, family_of
+
+
+def aubc_overview(results: Path, kept: dict[str, Column] | None = None) -> list[str]:
     """One Markdown table of every dataset's AUBC over its query rounds per method, with
     the 95% interval (a column per dataset, its range and seeds in the header); the
     matched-training family first, each method on one row; "-" where a dataset's run
-    has no such method."""
-    columns, rows, families = [], {}, {"matched": [], "paper": []}
-    for dataset in datasets(results):
-        budget = _rows(results / dataset / "tables" / "budget.csv")
-        summary = _summary(results, dataset)
-        scale = _num(budget[0].get("scale", 100)) if budget else 100.0
-        order = sorted({(int(r["row_pos"]), r["row"], r["method"]) for r in budget})
-        methods = [method for _, _, method in order]
-        grouped = [family for _, family in _families(summary, methods)]
-        if len(grouped) == 2:
-            families["matched"] += grouped[0]
-        families["paper"] += grouped[-1]
-        for _, label, method in order:
-            rows.setdefault(method, {"label": label})[dataset] = _aubc(summary, method, scale)
-        span = _span(summary, methods).strip()
-        header = f"{dataset} ({_metric(budget)}, {_seeds(summary, budget)})"
-        columns.append((dataset, f"{header}: {span}" if span else header))
+    has no such method. ``kept``: columns of datasets the folder lacks (from
+    ``overview_columns``), placed in dataset order."""
+    columns = dict(kept or {})
+    columns.update({dataset: _column(results, dataset) for dataset in datasets(results)})
+    order = _in_order(columns)
+    rows: dict[str, dict[str, str]] = {}
+    families: dict[str, list[str]] = {"matched": [], "paper": []}
+    for dataset in order:
+        _, cells, family_of = columns[dataset]
+        for row, cell in cells.items():
+            rows.setdefault(row, {})[dataset] = cell
+            families[family_of[row]].append(row)
     lines = [
-        "| Method | " + " | ".join(h for _, h in columns) + " |",
-        "|:---|" + "---:|" * len(columns),
+        "| Method | " + " | ".join(columns[d][0] for d in order) + " |",
+        "|:---|" + "---:|" * len(order),
     ]
     headings = {
         "matched": "matched training (every method trained on the variants)",
@@ -247,42 +325,45 @@ def aubc_overview(results: Path) -> list[str]:
     }
     shown: set[str] = set()
     for key in ("matched", "paper"):
-        family = [m for m in dict.fromkeys(families[key]) if m not in shown]
+        family = [row for row in dict.fromkeys(families[key]) if row not in shown]
         if not family:
             continue
         if families["matched"]:
-            lines.append(f"| *{headings[key]}* |" + " |" * len(columns))
-        for method in family:
-            cells = [rows[method].get(d, "-") for d, _ in columns]
-            lines.append(f"| {rows[method]['label']} | " + " | ".join(cells) + " |")
+            lines.append(f"| *{headings[key]}* |" + " |" * len(order))
+        for row in family:
+            cells = [rows[row].get(d, "-") for d in order]
+            lines.append(f"| {row} | " + " | ".join(cells) + " |")
         shown.update(family)
     return lines
 
 
-def readme_block(results: Path, page: str = BLOCK) -> str:
+def readme_block(results: Path, page: str = BLOCK, earlier: str | None = None) -> str:
     """The README's compact results: for the default run one table per dataset and its
     claims' verdicts; for a second run (``page``) one AUBC table of every dataset
-    (``aubc_overview``), then each dataset's verdicts."""
-    option = "" if page == BLOCK else f" --page {page}"
-    lines = [
-        f"<!-- generated by `{COMMAND} RESULTS{option}`: edit the generator, not this block -->",
-        "",
-    ]
+    (``aubc_overview``), then each dataset's verdicts. ``earlier``: the block as it was,
+    whose datasets the folder lacks are kept (``--keep-absent``)."""
+    present = datasets(results)
+    chunks = {d: c for d, c in readme_chunks(earlier or "").items() if d not in present}
+    lines = [_generated_by(page, kept=list(chunks), editable="this block"), ""]
+    parts: dict[str, list[str]] = {name: [chunk, ""] for name, chunk in chunks.items()}
     if page == BLOCK:
-        for dataset in datasets(results):
-            lines += [f"**{dataset}**: {_heading(results, dataset)}.", ""]
-            lines += compact_table(results, dataset)
-            lines += ["", verdict_line(claims(results, dataset)), ""]
+        for dataset in present:
+            parts[dataset] = [f"**{dataset}**: {_heading(results, dataset)}.", ""]
+            parts[dataset] += compact_table(results, dataset)
+            parts[dataset] += ["", verdict_line(claims(results, dataset)), ""]
     else:
+        kept = {d: c for d, c in overview_columns(earlier or "").items() if d not in present}
         lines += ["**Area under the budget curve over the query rounds** (%) [95% CI]:", ""]
-        lines += [*aubc_overview(results), ""]
-        for dataset in datasets(results):
+        lines += [*aubc_overview(results, kept), ""]
+        for dataset in present:
             budget = _rows(results / dataset / "tables" / "budget.csv")
             about = _seeds(_summary(results, dataset), budget)
             if _is_standin(budget):
                 about += "; synthetic stand-in for real data"
             text = verdict_line(claims(results, dataset))
-            lines += [f"**{dataset}** ({about}). {text}", ""]
+            parts[dataset] = [f"**{dataset}** ({about}). {text}", ""]
+    for dataset in _in_order(parts):
+        lines += parts[dataset]
     rule = "[docs/results.md](docs/results.md#statistics-how-sure)"
     if page == BLOCK:
         legend = (
@@ -381,23 +462,42 @@ def copy_figures(
     return copied
 
 
+def _generated_by(page: str, *, kept: list[str], editable: str, stamp: str = "") -> str:
+    """The comment line that opens a generated block: the command that wrote it and,
+    with ``--keep-absent``, the datasets kept from the block before."""
+    option = ("" if page == BLOCK else f" --page {page}") + (" --keep-absent" if kept else "")
+    if kept:
+        stamp = f"{stamp[:-1]}; " if stamp else " ("
+        stamp += f"{', '.join(_in_order(kept))} kept from an earlier run)"
+    return (
+        f"<!-- generated by `{COMMAND} RESULTS{option}`{stamp}: edit the generator"
+        f"{' or the text outside the markers' if editable == 'page' else ''}, not this block -->"
+    )
+
+
 def results_block(
-    results: Path, figures: dict | None = None, figures_dir: str = "figures", page: str = BLOCK
+    results: Path,
+    figures: dict | None = None,
+    *,
+    figures_dir: str = "figures",
+    page: str = BLOCK,
+    earlier: str | None = None,
 ) -> str:
-    """docs/{page}.md's generated part: every dataset's tables, verdicts and figures."""
+    """docs/{page}.md's generated part: every dataset's tables, verdicts and figures.
+    ``earlier``: the block as it was, whose datasets the folder lacks keep their
+    sections (``--keep-absent``)."""
     figures = figures or {}
     stamp = ""
     stamps = [p.stat().st_mtime for p in results.glob("*/tables/summary.json")]
     if stamps:
         stamp = datetime.fromtimestamp(max(stamps), tz=UTC).strftime(" (tables of %Y-%m-%d)")
-    option = "" if page == BLOCK else f" --page {page}"
-    lines = [
-        f"<!-- generated by `{COMMAND} RESULTS{option}`{stamp}: edit the generator or the text "
-        "outside the markers, not this block -->",
-        "",
-    ]
-    for dataset in datasets(results):
+    present = datasets(results)
+    kept = {d: s for d, s in page_sections(earlier or "").items() if d not in present}
+    sections: dict[str, list[str]] = {d: [s, ""] for d, s in kept.items()}
+    for dataset in present:
         summary = _summary(results, dataset)
+        lines: list[str] = []
+        sections[dataset] = lines
         lines += [
             f"## {dataset}",
             "",
@@ -428,6 +528,9 @@ def results_block(
             lines += [f"### {dataset}: paired comparisons", "", *comparisons, ""]
             if robustness:
                 lines += [*robustness, ""]
+    lines = [_generated_by(page, kept=list(kept), editable="page", stamp=stamp), ""]
+    for dataset in _in_order(sections):
+        lines += sections[dataset]
     return "\n".join(lines).rstrip()
 
 
@@ -472,11 +575,14 @@ def update(
     results: Path,
     docs: Path = Path("docs"),
     readme: Path = Path("README.md"),
+    *,
     page: str = BLOCK,
+    keep_absent: bool = False,
 ) -> list[Path]:
     """Copy the figures, rewrite docs/{page}.md's generated block and the README's block
     named ``page`` (the README is left alone when it has no such block, unless ``page``
-    is the default run's ``results``). Returns the files written."""
+    is the default run's ``results``). With ``keep_absent`` the datasets the folder
+    lacks keep what both blocks said of them. Returns the files written."""
     results, docs, readme = Path(results), Path(docs), Path(readme)
     if not datasets(results):
         raise ValueError(f"{results} holds no dataset with tables/budget.csv.")
@@ -492,16 +598,28 @@ def update(
         for d in datasets(results)
     }
     text = path.read_text() if path.exists() else DEFAULT_RESULTS_PAGE
-    writes = [(path, replace_block(text, BLOCK, results_block(results, names, page=page)))]
+    earlier = _block_or_none(text, BLOCK) if keep_absent else None
+    body = results_block(results, names, page=page, earlier=earlier)
+    writes = [(path, replace_block(text, BLOCK, body))]
     if readme.exists():
         text = readme.read_text()
         start = markers(page)[0]
         if page == BLOCK or any(line.strip() == start for line in text.split("\n")):
-            writes.append((readme, replace_block(text, page, readme_block(results, page))))
+            earlier = _block_or_none(text, page) if keep_absent else None
+            body = readme_block(results, page, earlier)
+            writes.append((readme, replace_block(text, page, body)))
     copy_figures(results, docs / "figures", page)
     for target, content in writes:
         atomic_write_text(target, content)
     return [target for target, _ in writes]
+
+
+def _block_or_none(text: str, name: str) -> str | None:
+    """Block ``name`` of ``text``, or None when ``text`` has no such block (then
+    ``replace_block`` names the missing marker)."""
+    start, end = markers(name)
+    lines = [line.strip() for line in text.split("\n")]
+    return block(text, name) if start in lines and end in lines else None
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -515,9 +633,17 @@ def main(argv: list[str] | None = None) -> int:
         default=BLOCK,
         help="docs/PAGE.md and the README block PAGE (default: results, the default run)",
     )
+    parser.add_argument(
+        "--keep-absent",
+        action="store_true",
+        help="keep what the blocks say of datasets RESULTS does not hold (a run of one "
+        "dataset into its own folder updates its part of a shared page)",
+    )
     args = parser.parse_args(argv)
     try:
-        written = update(args.results, args.docs, args.readme, args.page)
+        written = update(
+            args.results, args.docs, args.readme, page=args.page, keep_absent=args.keep_absent
+        )
     except ValueError as exc:
         print(f"error: {exc}", file=sys.stderr)
         return 1
