@@ -190,6 +190,15 @@ def test_claims_over_query_rounds_in_both_families():
     assert out.loc["inconsistency_over_diversity", "source"] == "paper"
     md = render_claims_markdown(out.reset_index())
     assert md.index("*The paper's claims*") < md.index("*Extensions*")
+    assert "only" not in out.loc["duis_best_aubc", "claim"]
+    # a run that keeps Margin in its matched form alone says whom "as the paper
+    # compares" was against
+    fewer = {**families, "paper": ["random", "duis"]}
+    out = claims(stored, fewer).set_index("claim_id")
+    assert out.loc["duis_best_aubc", "claim"].endswith(
+        ", as the paper compares (against Random only)."
+    )
+    assert "only" not in out.loc["duis_best_aubc_matched", "claim"]
 
 
 def test_small_n_never_says_supported():

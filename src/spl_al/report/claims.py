@@ -270,7 +270,7 @@ def _best_method_claims(cmp: pd.DataFrame, metric: str, families) -> list[dict]:
     groups = [("", None, "")]
     if families:
         groups = [
-            ("", families.get("paper"), "as the paper compares"),
+            ("", families.get("paper"), "as the paper compares" + _only(families)),
             ("_matched", families.get("matched"), "matched training"),
         ]
     for suffix, family, against in groups:
@@ -298,6 +298,23 @@ def _best_method_claims(cmp: pd.DataFrame, metric: str, families) -> list[dict]:
             ),
         ]
     return out
+
+
+PAPER_BASELINES = ("random", "entropy", "margin", "coreset", "badge")
+"""The baselines the paper compares DUIS with (each trained on observed images only)."""
+
+
+def _only(families: dict) -> str:
+    """The suffix ' (against X and Y only)' when the run has paper baselines in their
+    matched form alone, so that "as the paper compares" covers fewer baselines than the
+    run does; '' otherwise."""
+    paper = [m for m in families.get("paper") or [] if m != FULL_METHOD]
+    matched = set(families.get("matched") or [])
+    if not paper or all(b in paper for b in PAPER_BASELINES if f"syn_{b}" in matched):
+        return ""
+    names = [method_label(m) for m in paper]
+    listed = names[0] if len(names) == 1 else f"{', '.join(names[:-1])} and {names[-1]}"
+    return f" (against {listed} only)"
 
 
 LOW_BUDGET = ("typiclust", "probcover", "maxherding")
