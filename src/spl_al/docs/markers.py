@@ -30,10 +30,11 @@ def replace_block(text: str, name: str, body: str) -> str:
     return "\n".join(lines[: starts[0] + 1] + ([inner] if inner else []) + lines[ends[0] :])
 
 
-def block(text: str, name: str) -> str:
-    """The content of block ``name`` (without its markers)."""
+def block(text: str, name: str) -> str | None:
+    """The content of block ``name`` (without its markers); None when ``text`` lacks
+    either marker."""
     start, end = markers(name)
-    lines = text.split("\n")
-    i = next(i for i, line in enumerate(lines) if line.strip() == start)
-    j = next(j for j, line in enumerate(lines) if line.strip() == end)
-    return "\n".join(lines[i + 1 : j])
+    lines = [line.strip() for line in text.split("\n")]
+    if start not in lines or end not in lines:
+        return None
+    return "\n".join(text.split("\n")[lines.index(start) + 1 : lines.index(end)])
