@@ -81,12 +81,21 @@ def test_a_batch_list_needs_one_batch_per_query(default):
     check_plan(config)
 
 
-@pytest.mark.parametrize(("batch", "words"), [([6, 0, 9, 9], "not valid"), ([], "not valid")])
-def test_the_schema_takes_an_integer_or_a_list_of_positive_integers(default, batch, words):
+@pytest.mark.parametrize(
+    ("batch", "where", "words"),
+    [
+        ([6, 0, 9, 9], r"batch\.1", "0 is less than the minimum of 1"),
+        ([], "batch", r"\[\] should be non-empty"),
+        ("six", "batch", "'six' is not integer >= 1, or list of integer >= 1"),
+    ],
+)
+def test_the_schema_takes_an_integer_or_a_list_of_positive_integers(default, batch, where, words):
+    """A bad batch is named with what is wrong with it (the entry of a list, the
+    alternatives the key takes), not "not valid under any of the given schemas"."""
     config = copy.deepcopy(default)
     check_config(config, SCHEMA)
     config["datasets"]["street_pc"]["al"]["batch"] = batch
-    with pytest.raises(ValueError, match=rf"'datasets\.street_pc\.al\.batch'.*{words}"):
+    with pytest.raises(ValueError, match=rf"'datasets\.street_pc\.al\.{where}': {words} "):
         check_config(config, SCHEMA)
 
 

@@ -30,6 +30,33 @@ def test_unknown_key_is_named(tmp_path):
         check_config({"a": 1, "bogus": 2}, schema)
 
 
+@pytest.mark.parametrize(
+    ("batch", "key", "message"),
+    [
+        (0, "batch", "0 is less than the minimum of 1"),
+        ([6, 0], "batch.1", "0 is less than the minimum of 1"),
+        ("x", "batch", "'x' is not integer >= 1, or list of integer >= 1"),
+    ],
+)
+def test_a_value_that_fits_no_alternative_names_the_key_and_its_bound(
+    batch, key, message, monkeypatch
+):
+    """al.batch is an integer or a list (oneOf): the message is the alternative of the
+    value's own type, as docs/configuration.md quotes it, not "not valid under any of
+    the given schemas"."""
+    config = yaml.safe_load((ROOT / "config" / "config.yaml").read_text())
+    config["datasets"]["real_cls"]["al"]["batch"] = batch
+    monkeypatch.chdir(ROOT)  # the path the Snakefile gives
+    with pytest.raises(ValueError) as err:
+        check_config(config, "config/schema.yaml")
+    assert str(err.value) == (
+        f"config key 'datasets.real_cls.al.{key}': {message} (checked against config/schema.yaml)."
+    )
+    if batch == 0:  # the page's example, word for word
+        page = " ".join((ROOT / "docs" / "configuration.md").read_text().split())
+        assert f"`Error: {err.value}`" in page
+
+
 def test_real_captures_config_wins_over_the_environment(tmp_path):
     given, env_dir = tmp_path / "given", tmp_path / "env"
     given.mkdir()
@@ -81,6 +108,14 @@ SHIPPED = [
     "decisive-street_seg.yaml",
     "street.yaml",
 ]
+
+
+def test_paper_config_trains_every_round_from_fresh_weights():
+    """The paper's protocol is a fresh model per round: no dataset of config/paper.yaml
+    keeps the default config's warm start (street_pc's, synth_cls's, street_seg's)."""
+    config = _merged("paper.yaml")
+    warm = {name: entry["train"].get("warm_start") for name, entry in config["datasets"].items()}
+    assert warm == dict.fromkeys(["real_cls", "synth_cls", "street_seg", "street_pc"])
 
 
 @pytest.mark.parametrize("name", SHIPPED)

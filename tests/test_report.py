@@ -5,6 +5,7 @@ from __future__ import annotations
 import json
 import math
 import re
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -514,3 +515,156 @@ def test_a_budget_table_caption_carries_the_training_notes(tmp_path):
     md, tex = (tmp_path / "images.md").read_text(), (tmp_path / "images.tex").read_text()
     assert "seeds (train.fit.steps_by: images, so training steps scale with images" in md
     assert "steps\\_by: images" in tex.split("\\caption{")[1]
+
+
+# --- every title and label inside its figure ---------------------------------------------
+
+# The matched family's names (the widest tick labels push an Axes' centre, and so its
+# title, towards the right edge: real_cls's AUBC title was cut there).
+WIDE = {
+    m: ((0.40, 0.42, 0.44), (0.50 + k / 100, 0.52, 0.56), (0.60, 0.61, 0.62 + k / 50))
+    for k, m in enumerate(
+        [
+            "random",
+            "margin",
+            "badge",
+            "syn_random",
+            "syn_margin",
+            "syn_badge",
+            "syn_diversity",
+            "duis",
+        ]
+    )
+}
+LONG_TITLE = (
+    "a_dataset_with_a_long_name: accuracy against the labeling ratio, every method "
+    "of the budget experiment, both families"
+)
+
+
+def _grid_cells(methods, column="mean"):
+    import pandas as pd
+
+    rows = []
+    for method in methods:
+        for i, msppp in enumerate([1, 2, 5, 10, 20]):
+            for j, sbr in enumerate([0.05, 0.2, 1, 5, 20]):
+                rows.append(
+                    {
+                        "dataset": "a_dataset_with_a_long_name",
+                        "metric": "miou",
+                        "method": method,
+                        "baseline": "syn_diversity",
+                        "msppp": msppp,
+                        "sbr": sbr,
+                        column: 40.0 + i - j,
+                        "n_seeds": 3,
+                        "n": 3,
+                        "spans_zero": (i + j) % 2 == 0,
+                        "trained_range": 1 <= i <= 3 and 1 <= j <= 3,
+                    }
+                )
+    return pd.DataFrame(rows)
+
+
+def _charts():
+    from spl_al.experiment.robustness import _empty_figure
+    from spl_al.report.stat_figures import aubc_figure, difference_figure, heatmap_figure
+
+    df = records_frame(make_records(WIDE, dataset="real_cls", standin=True))
+    queries = df[df["round"] >= 1]
+    note = (
+        "\n(test scenes re-observed through the photon engine); dashed: the training "
+        "conditions' range"
+    )
+    return {
+        "curves": lambda: curves_figure(df, title=LONG_TITLE),
+        "curves, two panels": lambda: curves_figure(
+            df,
+            title=LONG_TITLE,
+            panels={"as the paper trains them": ["random", "margin"], "matched": ["duis"]},
+        ),
+        "level curves": lambda: level_curves_figure(df, title=LONG_TITLE + LONG_TITLE),
+        "aubc": lambda: aubc_figure(queries),
+        "aubc, one method": lambda: aubc_figure(queries, ["syn_diversity"]),
+        "heatmap, one method": lambda: heatmap_figure(_grid_cells(["duis"]), note=note),
+        "heatmap": lambda: heatmap_figure(_grid_cells(["random", "margin", "duis"]), note=note),
+        "difference": lambda: difference_figure(
+            _grid_cells(["duis"], "diff"), note=" (SIV re-imaged)"
+        ),
+        "no difference map": lambda: _empty_figure(
+            "No DUIS run or no baseline: no difference map."
+        ),
+    }
+
+
+def test_the_check_finds_a_title_past_the_edge_and_fit_texts_wraps_it():
+    from spl_al.plotting import fit_texts, new_figure, texts_outside
+
+    fig = new_figure(4, 3)
+    ax = fig.add_subplot()
+    ax.set_title(LONG_TITLE)
+    ax.set_ylabel("a label far longer than the figure is high, in words")
+    assert len(texts_outside(fig)) == 2
+    fit_texts(fig)
+    assert texts_outside(fig) == []
+    assert "\n" in ax.get_title() and ax.get_title().replace("\n", " ") == LONG_TITLE
+
+
+@pytest.mark.parametrize("name", list(_charts()))
+def test_no_title_or_label_of_a_chart_reaches_past_its_figure(name):
+    from spl_al.plotting import texts_outside
+
+    fig = _charts()[name]()
+    assert texts_outside(fig) == [], name
+
+
+def test_no_title_or_label_of_a_picture_reaches_past_its_figure(tmp_path, monkeypatch):
+    """The pictures saved as they are drawn (dataset sheets, a labeling batch, the
+    photon engine's): each figure as it was saved."""
+    import spl_al.data.pictures as data_pictures
+    import spl_al.labeling.batch as batch
+    import spl_al.photon.pictures as photon_pictures
+    from spl_al.data import make_classification_dataset, make_segmentation_dataset
+    from spl_al.data.variants import make_variants
+    from spl_al.photon import SensorParams
+    from spl_al.photon.scene import Condition, PhotonScene
+    from spl_al.photon.simulate import simulate_photons
+    from spl_al.plotting import texts_outside
+
+    saved = {}
+
+    def spy(save):
+        def wrapped(fig, path):
+            out = save(fig, path)
+            saved[str(Path(path).relative_to(tmp_path))] = fig
+            return out
+
+        return wrapped
+
+    monkeypatch.setattr(data_pictures, "save_png", spy(data_pictures.save_png))
+    monkeypatch.setattr(batch, "save_png", spy(batch.save_png))
+    monkeypatch.setattr(photon_pictures, "_save", spy(photon_pictures._save))
+    cls = make_classification_dataset(n_per_class=2, image_shape=(16, 16), seed=0, workers=1)
+    seg = make_segmentation_dataset(n_samples=4, image_shape=(16, 64), seed=1, workers=1)
+    for name, data in (("cls", cls), ("seg", seg)):
+        data_pictures.contact_sheet(data, tmp_path / f"{name}_contact.png", per_class=1)
+        with_variants = make_variants(data, n_variants=2, workers=1)
+        data_pictures.variants_sheet(with_variants, 0, tmp_path / f"{name}_variants.png")
+        batch.write_batch(
+            with_variants,
+            [0],
+            out_dir=tmp_path / f"{name}_batch",
+            labels_file=tmp_path / f"{name}.csv",
+        )
+    sensor = SensorParams.tabletop()
+    depth, refl = photon_pictures.demo_scene(32, 32)
+    events = simulate_photons(
+        PhotonScene(depth, reflectance=refl), Condition(5, 1, sensor), np.random.default_rng(0)
+    )
+    photon_pictures.render_real_capture(
+        events, sensor, tmp_path / "capture.png", title=LONG_TITLE + LONG_TITLE
+    )
+    assert len(saved) >= 9
+    outside = {name: texts_outside(fig) for name, fig in saved.items()}
+    assert {name: texts for name, texts in outside.items() if texts} == {}

@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import os
 from pathlib import Path
+from typing import Any
 
 # Environment variables naming folders that cannot ship with the repository.
 REAL_CAPTURES_ENV = "SPL_AL_REAL_CAPTURES"  # real photon captures (the ugv45m frames)
@@ -127,15 +128,68 @@ def _copy(value):
     return copy.deepcopy(value) if isinstance(value, dict) else {}
 
 
+def schema_values(node: dict) -> str:
+    """What values a leaf of the config schema takes, in words ("integer >= 1, or list
+    of integer >= 1"): the key reference's values column and the errors of
+    ``check_config``."""
+    if "enum" in node:
+        return "one of " + ", ".join(flow_value(v) for v in node["enum"])
+    if "oneOf" in node or "anyOf" in node:
+        return ", or ".join(schema_values(alt) for alt in node.get("oneOf") or node["anyOf"])
+    types = node.get("type", "")
+    types = [types] if isinstance(types, str) else list(types)
+    words = [t for t in types if t and t != "null"]
+    text = " or ".join(words) if words else "checked where used"
+    if node.get("type") == "array" or "array" in types:
+        items = node.get("items", {})
+        if isinstance(items, dict) and items.get("type"):
+            inner = schema_values(items)
+            text = f"list of {inner}"
+            if "minItems" in node and node.get("minItems") == node.get("maxItems"):
+                text = f"{node['minItems']} x {inner}"
+    bounds = []
+    if "minimum" in node:
+        bounds.append(f">= {flow_value(node['minimum'])}")
+    if "exclusiveMinimum" in node:
+        bounds.append(f"> {flow_value(node['exclusiveMinimum'])}")
+    if "maximum" in node:
+        bounds.append(f"<= {flow_value(node['maximum'])}")
+    if "exclusiveMaximum" in node:
+        bounds.append(f"< {flow_value(node['exclusiveMaximum'])}")
+    if bounds:
+        text += " " + ", ".join(bounds)
+    if "null" in types:
+        text += ", or null"
+    return text
+
+
+def flow_value(value: Any) -> str:
+    """A config value as it would be written in YAML flow style."""
+    if value is None:
+        return "null"
+    if isinstance(value, bool):
+        return "true" if value else "false"
+    if isinstance(value, (list, tuple)):
+        return "[" + ", ".join(flow_value(v) for v in value) + "]"
+    if isinstance(value, dict):
+        return "{" + ", ".join(f"{k}: {flow_value(v)}" for k, v in value.items()) + "}"
+    return str(value)
+
+
 def check_config(config: dict, schema_path) -> None:
     """Raise ValueError naming the first offending key when ``config`` breaks the schema.
 
     The message is one sentence: the dotted key path, the value found and what the
     schema expects (for example ``config key 'photon.reconstruct_method': 'sspi' is
-    not one of ['pooled', 'lmf']``).
+    not one of ['pooled', 'lmf']``). A value that fits none of a key's alternatives
+    (``oneOf``/``anyOf``, as ``al.batch``: an integer, or a list of them) is reported
+    against the alternative of its own type (``config key 'datasets.real_cls.al.batch':
+    0 is less than the minimum of 1``), or, when no alternative has its type, with what
+    the key takes (``'x' is not integer >= 1, or list of integer >= 1``).
     """
     import jsonschema
     import yaml
+    from jsonschema.exceptions import best_match
 
     # libyaml's loader where PyYAML has it: the pure-Python one takes ~0.4 s of every
     # Snakemake start (dry runs included) on a 2-core AVX2 CPU for this schema
@@ -145,9 +199,14 @@ def check_config(config: dict, schema_path) -> None:
     errors = sorted(validator.iter_errors(config), key=lambda e: (len(e.path), list(e.path)))
     if not errors:
         return
-    err = errors[0]
-    where = ".".join(str(p) for p in err.path) or "(top level)"
-    raise ValueError(f"config key {where!r}: {err.message} (checked against {schema_path}).")
+    # best_match descends into a oneOf/anyOf failure to the alternative that fits the
+    # value best (an integer's minimum, not "0 is not valid under any of the given schemas")
+    err = best_match([errors[0]])
+    message = err.message
+    if err.validator in ("oneOf", "anyOf"):  # no alternative has the value's type
+        message = f"{err.instance!r} is not {schema_values(err.schema)}"
+    where = ".".join(str(p) for p in err.absolute_path) or "(top level)"
+    raise ValueError(f"config key {where!r}: {message} (checked against {schema_path}).")
 
 
 def real_captures_dir(config: dict, environ=os.environ) -> Path | None:

@@ -21,6 +21,7 @@ import sys
 from pathlib import Path
 from typing import Any
 
+from spl_al.config import flow_value, schema_values
 from spl_al.docs.markers import markers, replace_block
 
 COMMAND = "python -m spl_al.docs.configuration"
@@ -60,52 +61,6 @@ def _resolve(node: dict, root: dict) -> dict:
     return merged
 
 
-def _allowed(node: dict) -> str:
-    """What values a leaf takes, in words."""
-    if "enum" in node:
-        return "one of " + ", ".join(_fmt(v) for v in node["enum"])
-    if "oneOf" in node or "anyOf" in node:
-        return ", or ".join(_allowed(alt) for alt in node.get("oneOf") or node["anyOf"])
-    types = node.get("type", "")
-    types = [types] if isinstance(types, str) else list(types)
-    words = [t for t in types if t and t != "null"]
-    text = " or ".join(words) if words else "checked where used"
-    if node.get("type") == "array" or "array" in types:
-        items = node.get("items", {})
-        if isinstance(items, dict) and items.get("type"):
-            inner = _allowed(items)
-            text = f"list of {inner}"
-            if "minItems" in node and node.get("minItems") == node.get("maxItems"):
-                text = f"{node['minItems']} x {inner}"
-    bounds = []
-    if "minimum" in node:
-        bounds.append(f">= {_fmt(node['minimum'])}")
-    if "exclusiveMinimum" in node:
-        bounds.append(f"> {_fmt(node['exclusiveMinimum'])}")
-    if "maximum" in node:
-        bounds.append(f"<= {_fmt(node['maximum'])}")
-    if "exclusiveMaximum" in node:
-        bounds.append(f"< {_fmt(node['exclusiveMaximum'])}")
-    if bounds:
-        text += " " + ", ".join(bounds)
-    if "null" in types:
-        text += ", or null"
-    return text
-
-
-def _fmt(value: Any) -> str:
-    """A config value as it would be written in YAML flow style."""
-    if value is None:
-        return "null"
-    if isinstance(value, bool):
-        return "true" if value else "false"
-    if isinstance(value, (list, tuple)):
-        return "[" + ", ".join(_fmt(v) for v in value) + "]"
-    if isinstance(value, dict):
-        return "{" + ", ".join(f"{k}: {_fmt(v)}" for k, v in value.items()) + "}"
-    return str(value)
-
-
 def _values(config: Any, path: tuple[str, ...], label: str = "") -> list[tuple[str, Any]]:
     """(entry name, value) for every default-config entry the path reaches."""
     if not path:
@@ -128,12 +83,12 @@ def _default(config: dict, path: tuple[str, ...]) -> str:
     if not found:
         return "not set"
     if not any(p.startswith("<") for p in path):
-        return f"`{_fmt(found[0][1])}`"
-    shown = {_fmt(v) for _, v in found}
+        return f"`{flow_value(found[0][1])}`"
+    shown = {flow_value(v) for _, v in found}
     entries = _values(config, path[: max(i for i, p in enumerate(path) if p.startswith("<")) + 1])
     if len(shown) == 1 and len(found) == len(entries):
         return f"`{shown.pop()}` (every entry)"
-    return "; ".join(f"{name}: `{_fmt(v)}`" for name, v in found)
+    return "; ".join(f"{name}: `{flow_value(v)}`" for name, v in found)
 
 
 def _walk(node: dict, root: dict, path: tuple[str, ...], sections: list) -> None:
@@ -201,7 +156,7 @@ def render(schema: dict, config: dict) -> str:
                 allowed = "mapping"
             else:
                 default = _default(config, key_path)
-                allowed = _allowed(sub)
+                allowed = schema_values(sub)
             cells = [f"`{key_path[-1]}`", meaning, unit, allowed, default]
             lines.append("| " + " | ".join(c.replace("|", "\\|") for c in cells) + " |")
         lines.append("")

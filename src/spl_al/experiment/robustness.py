@@ -413,8 +413,8 @@ def robustness_report(
 
 
 def _empty_figure(text: str):
-    from spl_al.plotting import new_figure
+    from spl_al.plotting import fit_texts, new_figure
 
     fig = new_figure(4, 1.5)
     fig.text(0.5, 0.5, text, ha="center", va="center")
-    return fig
+    return fit_texts(fig)

@@ -38,8 +38,7 @@ def demo_scene(rows: int = 64, cols: int = 64):
 def _imshow_depth(ax, depth, vmin, vmax, title):
     import matplotlib.pyplot as plt
 
-    cmap = plt.get_cmap("viridis").copy()
-    cmap.set_bad("black")  # voids
+    cmap = plt.get_cmap("viridis").with_extremes(bad="black")  # voids black
     ax.imshow(np.ma.masked_invalid(depth), cmap=cmap, vmin=vmin, vmax=vmax)
     ax.set_title(title, fontsize=8)
     ax.set_xticks([])
@@ -64,6 +63,7 @@ def render_condition_grid(
         len(DEMO_MSPPP),
         len(DEMO_SBR) + 2,
         figsize=(2.2 * (len(DEMO_SBR) + 2), 2.3 * len(DEMO_MSPPP)),
+        layout="tight",
     )
     probe = (20, 24)  # a pixel on the sphere
     for i, msppp in enumerate(DEMO_MSPPP):
@@ -95,7 +95,6 @@ def render_condition_grid(
                 ax.tick_params(labelsize=6)
         _imshow_depth(axes[i, 0], depth, vmin, vmax, "clean depth (m)")
     fig.suptitle(f"Photon simulation and '{method}' reconstruction (voids black)", fontsize=10)
-    fig.tight_layout()
     _save(fig, path)
 
 
@@ -141,7 +140,9 @@ def render_real_capture(
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    fig, axes = plt.subplots(1, 2 + len(methods), figsize=(3.5 * (2 + len(methods)), 3.4))
+    fig, axes = plt.subplots(
+        1, 2 + len(methods), figsize=(3.5 * (2 + len(methods)), 3.4), layout="tight"
+    )
     summed = np.bincount(events.bin, minlength=sensor.n_bins)
     axes[0].plot(sensor.bin_to_depth(np.arange(sensor.n_bins)) + depth_offset_m, summed, lw=0.6)
     axes[0].set_xlabel("depth (m)")
@@ -165,7 +166,6 @@ def render_real_capture(
         _imshow_depth(ax, recs[method].depth_m + depth_offset_m, lo, hi, label)
         fig.colorbar(ax.images[0], ax=ax, fraction=0.046)
     fig.suptitle(title, fontsize=10)
-    fig.tight_layout()
     _save(fig, path)
     return recs
 
@@ -174,7 +174,9 @@ def _save(fig, path):
     import matplotlib.pyplot as plt
 
     from spl_al.atomic import atomic_write
+    from spl_al.plotting import fit_texts
 
+    fit_texts(fig)  # laid out again (tight) at every draw, the wrapped titles too
     fmt = Path(path).suffix.lstrip(".") or "png"
     atomic_write(path, lambda tmp: fig.savefig(tmp, dpi=110, format=fmt))
     plt.close(fig)

@@ -14,7 +14,7 @@ from collections.abc import Mapping, Sequence
 import numpy as np
 import pandas as pd
 
-from spl_al.plotting import new_figure
+from spl_al.plotting import fit_texts, new_figure
 from spl_al.report.aggregate import method_curves
 from spl_al.report.display import (
     FULL_METHOD,
@@ -158,7 +158,7 @@ def curves_figure(
         axes[0].set_title(_title(d, title, default), fontsize=11)
     else:
         fig.suptitle(_title(d, title, default), fontsize=11)
-    return fig
+    return fit_texts(fig)
 
 
 def level_curves_figure(
@@ -194,7 +194,7 @@ def level_curves_figure(
     what = _metric_axis_label(d, metric_scale).split(" (")[0]
     default = f"{d['dataset'].iloc[0]}: {what} by MSPPP level vs labeling ratio"
     fig.suptitle(_title(d, title, default), fontsize=11)
-    return fig
+    return fit_texts(fig)
 
 
 def save_figure(fig, path_png, path_pdf, dpi: int = 150) -> tuple:

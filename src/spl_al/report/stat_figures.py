@@ -10,7 +10,7 @@ from collections.abc import Sequence
 import numpy as np
 import pandas as pd
 
-from spl_al.plotting import new_figure
+from spl_al.plotting import fit_texts, new_figure
 from spl_al.report.display import METRIC_LABELS, method_colors, method_label, ordered_methods
 from spl_al.report.records import one_dataset
 from spl_al.report.stats import aubc_per_seed, mean_interval, span_text
@@ -64,7 +64,7 @@ def aubc_figure(df: pd.DataFrame, methods: Sequence[str] | None = None, dataset=
     )
     ax.set_xlabel(f"AUBC: mean {metric} (%) over the labeling-ratio range")
     ax.grid(axis="x", alpha=0.3)
-    return fig
+    return fit_texts(fig)
 
 
 def heatmap_figure(cells: pd.DataFrame, *, note: str = ""):
@@ -110,7 +110,7 @@ def heatmap_figure(cells: pd.DataFrame, *, note: str = ""):
     )
     if image is not None:
         fig.colorbar(image, ax=fig.axes, shrink=0.8)
-    return fig
+    return fit_texts(fig)
 
 
 def difference_figure(diff: pd.DataFrame, *, note: str = ""):
@@ -149,7 +149,7 @@ def difference_figure(diff: pd.DataFrame, *, note: str = ""):
         fontsize=9,
     )
     fig.colorbar(image, ax=ax, shrink=0.8)
-    return fig
+    return fit_texts(fig)
 
 
 def _grid(cells: pd.DataFrame, msppp, sbr, column: str) -> np.ndarray:
