@@ -25,13 +25,15 @@ OVERRIDES = copy.deepcopy(config)
 # are merged on top of it by Snakemake (nested keys one by one, lists replaced whole).
 # A key set to null in an override is removed (e.g. `datasets: {synth_cls: null}`).
 # `only_datasets: [NAME, ...]` runs exactly those datasets (docs/configuration.md).
-configfile: "config/config.yaml"
+# Found beside this file, so a run from another folder (snakemake -s PATH/Snakefile,
+# --directory) reads the same defaults.
+configfile: Path(workflow.basedir) / "config" / "config.yaml"
 
 
 drop_removed(config)
 try:
     INHERITED = select_datasets(config, OVERRIDES)
-    check_config(config, "config/schema.yaml")
+    check_config(config, Path(workflow.basedir) / "config" / "schema.yaml")
 except ValueError as err:
     sys.exit(f"Error: {err}")
 

@@ -13,13 +13,12 @@ import numpy as np
 import pandas as pd
 import pytest
 from photon_captures import simulate_capture, write_ptu, write_timestamps_mat
-from snakemake_cli import SNAKEMAKE
+from snakemake_cli import CI_CONFIG, SNAKEMAKE
 
 from spl_al.data.digits import digit_scene
 from spl_al.data.seeds import STREAM_SCENE, sample_rng
 from spl_al.photon import SensorParams
 
-ROOT = Path(__file__).resolve().parents[1]
 pytestmark = [
     pytest.mark.slow,
     pytest.mark.usefixtures("warm_server"),  # tests/conftest.py: one server for every run
@@ -71,9 +70,9 @@ def test_captures_run_through_the_budget_and_level_tables(captures, tmp_path):
     results = tmp_path / "results"
     tables = results / "real_cls" / "tables"
     targets = [str(tables / f"{name}.csv") for name in ("budget", "levels", "comparisons")]
-    cmd = [*SNAKEMAKE, "-j2", *targets, "--configfile", "config/ci.yaml"]
+    cmd = [*SNAKEMAKE, "-j2", *targets, "--configfile", CI_CONFIG]
     cmd += [str(override), "--config", f"results={results}"]
-    run = subprocess.run(cmd, cwd=ROOT, capture_output=True, text=True)
+    run = subprocess.run(cmd, cwd=tmp_path, capture_output=True, text=True)
     assert run.returncode == 0, run.stdout[-3000:] + run.stderr[-3000:]
 
     conditions = pd.read_csv(results / "real_cls" / "captures" / "release" / "conditions.csv")

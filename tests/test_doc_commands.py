@@ -19,7 +19,7 @@ import subprocess
 from pathlib import Path
 
 import pytest
-from snakemake_cli import SNAKEMAKE
+from snakemake_cli import SNAKEMAKE, from_checkout
 from test_doc_examples import shell_commands
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -114,7 +114,9 @@ def test_every_long_run_command_resolves(args):
 
 
 @pytest.mark.parametrize("args", list(DRY_RUNS.values()), ids=list(DRY_RUNS))
-def test_every_documented_command_dry_runs(args):
+def test_every_documented_command_dry_runs(args, tmp_path):
+    """As a user runs it in a fresh clone: from a folder with no results/ and no
+    .snakemake/ (the checkout's, complete or half-done, change nothing here)."""
     if (
         "profiles/slurm" in args
         and importlib.util.find_spec("snakemake_executor_plugin_slurm") is None
@@ -122,8 +124,8 @@ def test_every_documented_command_dry_runs(args):
         pytest.skip("the SLURM executor plugin is not installed (pip install -e '.[cluster]')")
     env = {**os.environ, "SPL_AL_ESTIMATE": "0"}
     slurm = "profiles/slurm" in args
-    cmd = [*SNAKEMAKE, "-n", *args, *([] if slurm else ["--quiet", "rules"])]
-    run = subprocess.run(cmd, cwd=ROOT, capture_output=True, text=True, env=env, timeout=300)
+    cmd = [*SNAKEMAKE, "-n", *from_checkout(args), *([] if slurm else ["--quiet", "rules"])]
+    run = subprocess.run(cmd, cwd=tmp_path, capture_output=True, text=True, env=env, timeout=300)
     assert run.returncode == 0, run.stdout[-2000:] + run.stderr[-2000:]
     if slurm:  # a round's train and the query it feeds: one submission, one group job
         assert "Group job round_real_cls_duis_1_0" in run.stdout + run.stderr

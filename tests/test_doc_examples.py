@@ -19,7 +19,7 @@ from pathlib import Path
 import pytest
 import yaml
 from snakemake.utils import update_config
-from snakemake_cli import SNAKEMAKE
+from snakemake_cli import snakemake_on
 
 from spl_al.config import check_config, drop_removed, select_datasets
 from spl_al.experiment.plan import check_plan
@@ -116,8 +116,9 @@ def placeholders(tmp_path: Path) -> dict[str, str]:
     }
 
 
-def planned_datasets(text: str, workdir: Path, tmp_path: Path) -> set[str]:
-    """The datasets whose jobs a dry run of the example (placeholders in) plans."""
+def planned_datasets(text: str, workflow: Path, tmp_path: Path) -> set[str]:
+    """The datasets whose jobs a dry run of the example (placeholders in) plans, on the
+    workflow in folder ``workflow``, run from ``tmp_path``."""
     for old, new in placeholders(tmp_path).items():
         text = re.sub(rf"(?<![\w/]){re.escape(old)}\b", new, text)
     user = yaml.safe_load(text)
@@ -125,8 +126,8 @@ def planned_datasets(text: str, workdir: Path, tmp_path: Path) -> set[str]:
     config = tmp_path / "example.yaml"
     config.write_text(yaml.safe_dump(user))
     run = subprocess.run(
-        [*SNAKEMAKE, "-n", "--cores", "1", "--configfile", str(config)],
-        cwd=workdir,
+        [*snakemake_on(workflow / "Snakefile"), "-n", "--cores", "1", "--configfile", str(config)],
+        cwd=tmp_path,
         capture_output=True,
         text=True,
     )

@@ -19,7 +19,6 @@ from snakemake_cli import SNAKEMAKE
 
 from spl_al.data import Dataset
 
-ROOT = Path(__file__).resolve().parents[1]
 pytestmark = [
     pytest.mark.slow,
     pytest.mark.usefixtures("warm_server"),  # tests/conftest.py: one server for every run
@@ -46,7 +45,7 @@ def read_json(path):
 def snakemake(tmp_path, *targets):
     cmd = [*SNAKEMAKE, "-j2", "--keep-going", *targets]
     cmd += ["--configfile", str(tmp_path / "config.yaml")]
-    return subprocess.run(cmd, cwd=ROOT, capture_output=True, text=True)
+    return subprocess.run(cmd, cwd=tmp_path, capture_output=True, text=True)
 
 
 def annotate(dataset_path: Path, batch: Path, out: Path, wrong: str | None = None) -> None:

@@ -8,8 +8,10 @@ With SPL_AL_SLURM=1 the whole DAG also runs on a real single-node SLURM
 
 from __future__ import annotations
 
+import fnmatch
 import json
 import os
+import re
 import shutil
 import signal
 import subprocess
@@ -18,7 +20,9 @@ from pathlib import Path
 
 import pandas as pd
 import pytest
-from snakemake_cli import SNAKEMAKE
+from snakemake_cli import CI_CONFIG, SNAKEMAKE
+
+from spl_al.experiment.warm_client import SOCKET_ENV
 
 ROOT = Path(__file__).resolve().parents[1]
 pytestmark = [
@@ -40,19 +44,24 @@ WALL: dict[str, float] = {}
 
 
 def snakemake(results: Path, *args, check=True, profile=None, background=False, env=None):
-    cmd = [*SNAKEMAKE, "--configfile", "config/ci.yaml"]
+    """Snakemake on config/ci.yaml into ``results``, from the folder that holds it (its
+    .snakemake/ records what made ``results``)."""
+    cmd = [*SNAKEMAKE, "--configfile", CI_CONFIG]
     cmd += ["--config", f"results={results}"]
-    cmd += ["--profile", profile] if profile else ["-j2"]
+    # a profile of the checkout by its name there, or one by its full path
+    cmd += ["--profile", str(ROOT / profile)] if profile else ["-j2"]
     cmd += list(args)
+    results.parent.mkdir(parents=True, exist_ok=True)
     if background:
         return subprocess.Popen(
             cmd,
-            cwd=ROOT,
+            cwd=results.parent,
             stdout=subprocess.DEVNULL,
             stderr=subprocess.DEVNULL,
             start_new_session=True,
+            env=env,
         )
-    run = subprocess.run(cmd, cwd=ROOT, capture_output=True, text=True, env=env)
+    run = subprocess.run(cmd, cwd=results.parent, capture_output=True, text=True, env=env)
     if check and run.returncode != 0:
         raise AssertionError(f"snakemake failed:\n{run.stdout[-3000:]}\n{run.stderr[-3000:]}")
     return run
@@ -281,6 +290,81 @@ def test_final_models_export_to_onnx_with_cards(ci_results, tmp_path):
     assert rows["msppp"].notna().all()
 
 
+def planned(results: Path, tmp_path: Path, change: str | None) -> tuple[set[str], str]:
+    """(the files a dry run over the shared run's ``results`` plans, below ``results``;
+    its output) with the YAML override ``change`` on top of config/ci.yaml."""
+    args = ["-n"]
+    if change is not None:
+        override = tmp_path / "change.yaml"
+        override.write_text(change)
+        args = ["-n", "--configfile", CI_CONFIG, str(override)]
+    run = snakemake(results, *args)
+    out = run.stdout + run.stderr
+    files = set()
+    for line in re.findall(r"^\s+output: (.+)$", out, flags=re.M):
+        files |= {str(Path(f).relative_to(results)) for f in line.split(", ")}
+    return files, out
+
+
+# (override, files that must rerun, patterns of files that must not)
+CHANGES = {
+    "a method's params": (
+        "methods: {duis: {params: {alpha: 0.4}}}",
+        [
+            "real_cls/duis/seed1/round1/labeled.json",
+            "real_cls/duis/seed2/round1/metrics.json",
+            "street_seg/duis/seed1/round1/labeled.json",
+            "real_cls/tables/budget.csv",
+        ],
+        # (a new sweep method, duis_alpha0.5, is planned whole: it is new)
+        ["*/duis/*/round0/*", "*/random/*", "*/syn_diversity/*", "*/data/*", "*/initial/*"],
+    ),
+    "a dataset's fit": (
+        "datasets: {real_cls: {train: {fit: {epochs: 3}}}}",
+        ["real_cls/initial/seed1/m0/model.pt", "real_cls/random/seed2/round1/metrics.json"],
+        ["real_cls/data/*", "real_cls/initial/seed?.json", "street_seg/*", "street_pc/*"],
+    ),
+    "a dataset's synthesis": (
+        "datasets: {street_pc: {synthesis: {n_samples: 22}}}",
+        ["street_pc/data/observed.npz", "street_pc/random/seed1/round1/labeled.json"],
+        ["real_cls/*", "street_seg/*"],
+    ),
+    "a dataset's variants": (
+        "datasets: {real_cls: {variants: {seed: 1}}}",
+        ["real_cls/data/dataset.npz", "real_cls/duis/seed1/round1/metrics.json"],
+        ["real_cls/data/observed.npz", "real_cls/initial/seed?.json", "street_*"],
+    ),
+    "a new seed": (
+        "datasets: {street_pc: {experiments: {budget: {seeds: [1, 2, 3]}}}}",
+        ["street_pc/random/seed3/round1/metrics.json", "street_pc/tables/budget.csv"],
+        ["street_pc/*/seed1/*", "street_pc/*/seed2/*", "*/data/*", "real_cls/*", "street_seg/*"],
+    ),
+    "a dataset's batch": (
+        "datasets: {street_pc: {al: {batch: 2}}}",
+        ["street_pc/random/seed1/round1/labeled.json"],
+        ["*/round0/*", "*/initial/*", "*/data/*", "real_cls/*", "street_seg/*"],
+    ),
+}
+
+
+@pytest.mark.parametrize("name", list(CHANGES))
+def test_a_changed_setting_reruns_exactly_the_jobs_that_read_it(ci_results, tmp_path, name):
+    change, rerun, kept = CHANGES[name]
+    files, out = planned(ci_results, tmp_path, change)
+    assert set(rerun) <= files, f"{name}: not planned: {sorted(set(rerun) - files)}"
+    wrong = sorted(f for f in files if any(fnmatch.fnmatch(f, p) for p in kept))
+    assert not wrong, f"{name}: planned although the change does not reach them: {wrong}"
+    assert "Changed since the last run into" in out
+
+
+def test_the_unchanged_config_plans_nothing_and_names_its_change(ci_results, tmp_path):
+    files, out = planned(ci_results, tmp_path, None)
+    assert not files and "Nothing to be done" in out
+    _, out = planned(ci_results, tmp_path, CHANGES["a method's params"][0])
+    assert "  methods.duis.params.alpha 0.5 -> 0.4\n" in out
+    assert "older spl-al" not in out
+
+
 def resume_from(ci_results: Path, results: Path, dataset: str, *folders: str) -> None:
     """Copy ``folders`` of the shared run's ``dataset`` into ``results``, file times kept:
     a run there takes them as done (a run that stopped after them) and does the rest."""
@@ -288,22 +372,44 @@ def resume_from(ci_results: Path, results: Path, dataset: str, *folders: str) ->
         shutil.copytree(ci_results / dataset / folder, results / dataset / folder)
 
 
+def warm_processes(folder: str) -> list[int]:
+    """Pids of the processes whose command line names ``folder`` (a warm server's)."""
+    pids = []
+    for proc in Path("/proc").glob("[0-9]*"):
+        try:
+            if folder.encode() in (proc / "cmdline").read_bytes():
+                pids.append(int(proc.name))
+        except OSError:
+            continue  # ended meanwhile
+    return pids
+
+
 def test_killed_run_resumes_to_identical_tables_and_labeled_sets(ci_results, tmp_path):
-    """A second run of the same config (street_seg, from its data and round-0 fits),
-    SIGKILLed in its query rounds and restarted, ends with the same labeled sets and
-    tables as the uninterrupted run."""
+    """A second run of the same config (street_seg, from its data and round-0 fits), with
+    its own warm job server, SIGKILLed as a whole process group in its query rounds and
+    restarted after `snakemake --unlock`, ends with the same labeled sets and tables as
+    the uninterrupted run; the killed run's server and socket do not outlive it."""
     results = tmp_path / "results"
     resume_from(ci_results, results, "street_seg", "data", "initial")
     target = [str(results / "street_seg" / "tables" / f"{t}.csv") for t in ("budget", "levels")]
-    proc = snakemake(results, *target, background=True)
+    own = {k: v for k, v in os.environ.items() if k != SOCKET_ENV}  # its own server
+    proc = snakemake(results, *target, background=True, env=own)
     deadline = time.monotonic() + 300
     while not list((results / "street_seg").glob("*/seed*/round1/labeled.json")):
         assert proc.poll() is None, "the run ended before it could be killed"
         assert time.monotonic() < deadline
         time.sleep(0.5)
-    os.killpg(proc.pid, signal.SIGKILL)
+    ready = (results / "logs" / "warm_server.log").read_text()
+    socket = re.search(r"ready at (\S+)", ready).group(1)
+    os.killpg(proc.pid, signal.SIGKILL)  # Snakemake, its jobs and the server it started
     proc.wait()
     assert not (results / "street_seg" / "tables" / "budget.csv").exists()
+    folder = str(Path(socket).parent)
+    deadline = time.monotonic() + 10
+    while (warm_processes(folder) or Path(folder).exists()) and time.monotonic() < deadline:
+        time.sleep(0.2)
+    assert not warm_processes(folder), "the killed run's warm server is still running"
+    assert not Path(folder).exists(), "the killed run's warm socket folder is left behind"
 
     snakemake(results, "--unlock", *target)
     snakemake(results, *target)
@@ -321,7 +427,13 @@ def test_cluster_mode_runs_group_jobs_and_agrees(ci_results, tmp_path):
     results = tmp_path / "results"
     resume_from(ci_results, results, "street_pc", "data", "initial", "random/seed1/round0")
     target = results / "street_pc" / "random" / "seed1" / "round1" / "metrics.json"
-    run = snakemake(results, str(target), profile="profiles/local-cluster")
+    # the profile names its submit script from the checkout: here, by its full path
+    profile = tmp_path / "local-cluster"
+    shutil.copytree(ROOT / "profiles" / "local-cluster", profile)
+    text = (profile / "config.yaml").read_text()
+    submit = str(ROOT / "profiles" / "local-cluster" / "submit.sh")
+    (profile / "config.yaml").write_text(text.replace("profiles/local-cluster/submit.sh", submit))
+    run = snakemake(results, str(target), profile=str(profile))
     out = run.stdout + run.stderr
     assert "Submitted group job" in out and "rule dataset" not in out
     ours = json.loads(target.read_text())
@@ -384,9 +496,6 @@ def test_slurm_runs_the_ci_dag_to_identical_tables(ci_results, slurm_cluster, tm
     assert submitted > 50 and groups > 10 and len(job_logs) == submitted
     for log in job_logs:
         assert "steps (100%) done" in log.read_text(), f"{log} does not end in success"
-    # the warm job server is a local run's (the local run here started one)
-    assert (ci_results / "logs" / "warm_server.log").exists()
-    assert not (results / "logs" / "warm_server.log").exists()
     ours, local = tables(results), tables(ci_results)
     assert sorted(ours) == sorted(local) and len(ours) > 40
     differ = [name for name in local if ours[name] != local[name]]

@@ -15,7 +15,7 @@ import numpy as np
 import pandas as pd
 import pytest
 import yaml
-from snakemake_cli import SNAKEMAKE
+from snakemake_cli import CI_CONFIG, SNAKEMAKE
 from test_strategies import check_contract, make_inputs
 
 from spl_al import strategies
@@ -225,8 +225,8 @@ def test_an_entry_point_strategy_runs_one_round_of_the_ci_dag(on_path, tmp_path)
     table_csv = results / "real_cls" / "tables" / "budget.csv"
     bad = results / "real_cls" / "bad" / "seed1" / "round1" / "labeled.json"
     cmd = [*SNAKEMAKE, "-j2", "--keep-going", str(table_csv), str(bad)]
-    cmd += ["--configfile", "config/ci.yaml", str(override), "--config", f"results={results}"]
-    run = subprocess.run(cmd, cwd=ROOT, capture_output=True, text=True, env=env)
+    cmd += ["--configfile", CI_CONFIG, str(override), "--config", f"results={results}"]
+    run = subprocess.run(cmd, cwd=tmp_path, capture_output=True, text=True, env=env)
     out = run.stdout + run.stderr
     assert run.returncode != 0 and table_csv.is_file(), out[-3000:]
     assert "real_cls/bad seed 1: the query that makes round 1 stopped, as strategy 'broken'" in out

@@ -13,7 +13,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 import pytest
-from snakemake_cli import SNAKEMAKE
+from snakemake_cli import CI_CONFIG, SNAKEMAKE
 
 from spl_al.data import load_folder
 from spl_al.data.digits import write_digits_folder
@@ -71,9 +71,9 @@ def test_release_layout_runs_through_every_table(release, tmp_path):
         "      ablation: null\n      sensitivity: null\n"
     )
     results = tmp_path / "results"
-    cmd = [*SNAKEMAKE, "-j2", "--configfile", "config/ci.yaml"]
+    cmd = [*SNAKEMAKE, "-j2", "--configfile", CI_CONFIG]
     cmd += [str(override), "--config", f"results={results}"]
-    run = subprocess.run(cmd, cwd=ROOT, capture_output=True, text=True)
+    run = subprocess.run(cmd, cwd=tmp_path, capture_output=True, text=True)
     assert run.returncode == 0, run.stdout[-3000:] + run.stderr[-3000:]
     assert "files carry no MSPPP level; give `levels_file`" in run.stdout + run.stderr
 

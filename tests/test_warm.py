@@ -228,8 +228,8 @@ SCRIPT = textwrap.dedent(
 
 
 def script_job(folder: Path, fail=False) -> list[str]:
-    """The command a rule runs for SCRIPT: python -S -P warm_client.py SCRIPT LOG THREADS JOB,
-    with the job written from Snakemake's own named lists."""
+    """The command a rule runs for SCRIPT: python -S -P warm_client.py SCRIPT LOG THREADS
+    FILES SETTINGS, with the files written from Snakemake's own named lists."""
     from snakemake.iocontainers import Namedlist
 
     from spl_al.experiment import warm_client
@@ -241,9 +241,10 @@ def script_job(folder: Path, fail=False) -> list[str]:
     outputs = Namedlist(fromdict={"seen": str(folder / "seen.json")})
     wildcards = Namedlist(fromdict={"seed": "7"})
     params = {"sweeps": {0.25: "duis_alpha0.25", 12: "duis"}, "fail": fail}
-    text = warm_client.job_text(inputs, outputs, wildcards, params)
+    files = warm_client.files_text(inputs, outputs, wildcards)
+    settings = repr(warm_client.job_settings(params))
     client = [sys.executable, "-S", "-P", warm_client.__file__, str(folder / "script.py")]
-    return [*client, str(folder / "job.log"), "3", text]
+    return [*client, str(folder / "job.log"), "3", files, settings]
 
 
 @pytest.mark.parametrize("warm", [True, False])
@@ -270,9 +271,7 @@ def test_a_script_run_by_the_warm_client_reads_its_job_as_snakemake_gives_it(
 
 
 def test_a_job_with_params_that_do_not_read_back_is_refused(tmp_path):
-    from snakemake.iocontainers import Namedlist
-
     from spl_al.experiment import warm_client
 
     with pytest.raises(ValueError, match="plain values"):
-        warm_client.job_text(Namedlist(), Namedlist(), Namedlist(), {"path": tmp_path})
+        warm_client.job_settings({"path": tmp_path})

@@ -6,6 +6,7 @@ import os
 import re
 import shutil
 import subprocess
+import tempfile
 from pathlib import Path
 
 import pytest
@@ -22,8 +23,11 @@ pytestmark = [
 ]
 
 
-def snakemake(*args, cwd=ROOT):
-    return subprocess.run([*SNAKEMAKE, *args], cwd=cwd, capture_output=True, text=True)
+def snakemake(*args):
+    """Snakemake on this checkout's Snakefile from a folder of its own (results/ and
+    .snakemake/ there, not in the checkout)."""
+    with tempfile.TemporaryDirectory(prefix="spl-al-test-") as workdir:
+        return subprocess.run([*SNAKEMAKE, *args], cwd=workdir, capture_output=True, text=True)
 
 
 def test_unknown_config_key_fails_before_any_job_with_the_key_named():
@@ -63,7 +67,7 @@ def test_a_missing_real_captures_folder_is_one_line_naming_the_variable(tmp_path
     env = {**os.environ, "SPL_AL_REAL_CAPTURES": str(tmp_path / "nowhere")}
     run = subprocess.run(
         [*SNAKEMAKE, "-n", "--cores", "1"],
-        cwd=ROOT,
+        cwd=tmp_path,
         capture_output=True,
         text=True,
         env=env,
@@ -124,3 +128,5 @@ def test_every_script_runs_through_the_warm_client():
     for block in jobs:
         params = re.search(r"^\s+params:\n\s+(\S[^\n]*)", block, re.MULTILINE)
         assert params is None or params[1].startswith("job=job_params("), block
+        # ... and its files: the script's snakemake.input, .output and .wildcards
+        assert params is None or re.search(r"^\s+files=job_files,$", block, re.MULTILINE)

@@ -265,11 +265,18 @@ def training_notes(config: dict, dataset: str) -> list[str]:
     return notes
 
 
+SETTINGS_RECORDED = "# Its jobs recorded the settings they read (Snakemake's params).\n"
+"""The line of a run's config.yaml that says its jobs recorded their settings: a results
+folder without it was made by an older spl-al (``spl_al.experiment.provenance``)."""
+
+
 def write_config(config: dict, path) -> Path:
     """Write the effective configuration of a run as YAML (atomically, keys sorted)."""
     import yaml
 
     from spl_al.atomic import atomic_write_text
 
-    text = "# The configuration this run used (config/config.yaml + overrides).\n"
+    text = (
+        "# The configuration this run used (config/config.yaml + overrides).\n" + SETTINGS_RECORDED
+    )
     return atomic_write_text(path, text + yaml.safe_dump(config, sort_keys=True))

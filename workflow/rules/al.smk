@@ -25,8 +25,9 @@ rule initial_set:
         runtime=res("initial_set", "runtime", 5),
     params:
         job=job_params(
-            al=lambda w: config["datasets"][w.dataset]["al"],
+            al=lambda w: initial_set_params(w.dataset),
         ),
+        files=job_files,
     shell:
         python_job("initial_set")
 
@@ -59,6 +60,7 @@ rule train_initial:
             device=config["device"],
             precision=lambda w: dataset_precision(config, w.dataset),
         ),
+        files=job_files,
     shell:
         python_job("train_initial")
 
@@ -94,6 +96,7 @@ rule train:
             device=config["device"],
             precision=lambda w: dataset_precision(config, w.dataset),
         ),
+        files=job_files,
     shell:
         python_job("train")
 
@@ -126,5 +129,6 @@ rule query:
             ).as_dict(),
             batch=query_batch,
         ),
+        files=job_files,
     shell:
         python_job("query")

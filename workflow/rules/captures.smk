@@ -24,6 +24,7 @@ rule captures_shard:
             entry=lambda w: dataset_params(w.dataset),
             sspi_weights=config["photon"].get("sspi_weights"),
         ),
+        files=job_files,
     shell:
         python_job("captures_shard")
 
@@ -52,5 +53,6 @@ rule captures_release:
         job=job_params(
             entry=lambda w: dataset_params(w.dataset),
         ),
+        files=job_files,
     shell:
         python_job("captures_release")

@@ -1,5 +1,6 @@
 # Shared names and input functions; rules live in the other .smk files.
 import functools
+import os
 import shlex
 import sys
 from pathlib import Path
@@ -28,6 +29,12 @@ from spl_al.data.label_files import lists_training_rows
 from spl_al.experiment import warm_client
 from spl_al.experiment.warm import Server
 from spl_al.experiment.overview import jobs_line, plan_text
+from spl_al.experiment.provenance import (
+    OLDER_RESULTS,
+    changes_text,
+    older_results,
+    rerun_line,
+)
 from spl_al.experiment.plan import (
     batch_of,
     budget_families,
@@ -125,8 +132,13 @@ except ValueError as err:
 
 # The plan, once per run (not in each cluster job); `jobs_line` follows it once the
 # jobs are known (onstart). `snakemake -n` prints it without running anything.
+# Then what changed since the last run into RESULTS, whose jobs that change reruns.
 if workflow.exec_mode == ExecMode.DEFAULT:
     logger.info(plan_text(config, INHERITED))
+    if older_results(f"{RESULTS}/config.yaml"):
+        logger.info(OLDER_RESULTS.format(results=RESULTS))
+    elif changed := changes_text(f"{RESULTS}/config.yaml", config):
+        logger.info(changed)
 
 
 def print_jobs_line():
@@ -136,11 +148,16 @@ def print_jobs_line():
     except Exception:  # a run without --cores (a cluster): one estimate per job
         at_once = 1
     jobs = len(workflow.dag)
-    from spl_al.bench.estimate import estimate_minutes  # times each model: only when run
+    from spl_al.bench.estimate import (
+        estimate_minutes,
+    )  # times each model: only when run
 
-    logger.info(
-        jobs_line(jobs, RESULTS, estimate_minutes(config, at_once) if jobs else None)
+    settings = sum(
+        bool(workflow.dag.reason(job).params_changed)
+        for job in workflow.dag.needrun_jobs()
     )
+    minutes = estimate_minutes(config, at_once) if jobs else None
+    logger.info(jobs_line(jobs, RESULTS, minutes) + rerun_line(settings))
 
 
 @functools.cache  # once per run: it names every file it leaves out
@@ -187,13 +204,16 @@ def n_shards(dataset):
     return int(config["datasets"][dataset]["variants"]["shards"])
 
 
+# The keys of a dataset entry its observed images do not depend on: the loop, the
+# training, the variants (their own rules), the experiments and the job sizes.
+NOT_DATA = ("al", "train", "variants", "experiments", "robustness", "resources")
+
+
 def dataset_params(dataset):
-    """The dataset's config entry without its experiments and robustness grid: what its
-    data depend on."""
-    entry = dict(config["datasets"][dataset])
-    entry.pop("experiments", None)
-    entry.pop("robustness", None)
-    return entry
+    """The dataset's config entry without the keys its data do not depend on
+    (``NOT_DATA``): a change to them reruns nothing of the data."""
+    entry = config["datasets"][dataset]
+    return {key: value for key, value in entry.items() if key not in NOT_DATA}
 
 
 def dataset_threads(wildcards):
@@ -236,6 +256,13 @@ def labeled_in_round(wildcards, r):
     if r == 0 and wildcards.dataset not in HUMAN:
         return f"{RESULTS}/{wildcards.dataset}/initial/seed{wildcards.seed}.json"
     return round_file(wildcards, r, "labeled.json")
+
+
+def initial_set_params(dataset):
+    """What a seed's round-0 draw reads of the dataset's `al`: its size and whether it
+    is stratified (not the batches or the ratio's denominator)."""
+    al = config["datasets"][dataset]["al"]
+    return {k: v for k, v in al.items() if k in ("initial", "stratified_initial")}
 
 
 def labeled_input(wildcards):
@@ -541,10 +568,17 @@ def robustness_outputs(dataset):
 
 # (not named `conda`: that word opens a rule directive for Snakemake's parser)
 PER_RULE_ENVS = DeploymentMethod.CONDA in workflow.deployment_settings.deployment_method
-# A job's Python: this run's own, or its rule's conda environment's.
-JOB_PYTHON = "python" if PER_RULE_ENVS else sys.executable
-SCRIPTS = str(Path(workflow.basedir) / "workflow" / "scripts")
-WARM_CLIENT = warm_client.__file__
+# A job finds its Python (this run's own, or its rule's conda environment's), the job
+# client and the scripts through the environment, which Snakemake's jobs inherit (a
+# cluster job parses this file again and sets them there): a rule's command, which
+# Snakemake's "code changed" trigger compares, names no path of this checkout or
+# Python, and uses nothing from outside its rule (snakemake --lint).
+# (set here, not read from the user: no `envvars:` entry)
+os.environ.update(
+    SPL_AL_PYTHON="python" if PER_RULE_ENVS else sys.executable,
+    SPL_AL_JOB_CLIENT=warm_client.__file__,
+    SPL_AL_SCRIPTS=str(Path(workflow.basedir) / "workflow" / "scripts"),
+)
 
 
 def python_job(script):
@@ -552,31 +586,39 @@ def python_job(script):
     client (spl_al/experiment/warm_client.py, standard library only, so the job's own
     process starts in ~0.03 CPU-s instead of the ~0.25 of Snakemake's `script:`)
     hands the script to the warm server, or runs it itself without one. The script
-    reads its job from `snakemake` as usual: the rule's `params` must be
-    `job=job_params(...)`."""
-    # Paths by name, filled in when the job runs: the rule's recorded command (what
-    # Snakemake's "code changed" compares) stays the same when the checkout or the
-    # Python environment moves.
+    reads its job from `snakemake` as usual; the rule's params must be
+    `job=job_params(...)` (the settings) and `files=job_files` (the paths)."""
     return (
-        f"{{JOB_PYTHON:q}} -S -P {{WARM_CLIENT:q}} {{SCRIPTS:q}}/{script}.py"
-        " {log:q} {threads} {params.job:q}"
+        '"$SPL_AL_PYTHON" -S -P "$SPL_AL_JOB_CLIENT"'
+        f' "$SPL_AL_SCRIPTS/{script}.py"'
+        " {log:q} {threads} {params.files:q} {params.job:q}"
     )
 
 
 def job_params(**params):
-    """The `params: job=job_params(NAME=VALUE, ...)` that `python_job` needs. Each
-    value, or function of the job's wildcards, evaluated for the job and written as
-    one Python literal with the job's input, output and wildcards; the script reads it
-    back as `snakemake.params.NAME`, `snakemake.input.NAME`, ..."""
+    """The `params: job=job_params(NAME=VALUE, ...)` that `python_job` needs: every
+    setting the job reads. Each value, or function of the job's wildcards, is evaluated
+    for the job into one dict of plain values, which the script reads back as
+    `snakemake.params.NAME`. A function of the wildcards alone, so Snakemake records
+    the dict and its params trigger reruns the job when a setting changes (it leaves
+    out params computed from input or output)."""
 
-    def job(wildcards, input, output):
-        values = {
-            name: value(wildcards) if callable(value) else value
-            for name, value in params.items()
-        }
-        return warm_client.job_text(input, output, wildcards, values)
+    def job(wildcards):
+        return warm_client.job_settings(
+            {
+                name: value(wildcards) if callable(value) else value
+                for name, value in params.items()
+            }
+        )
 
     return job
+
+
+def job_files(wildcards, input, output):
+    """The `params: files=job_files` that `python_job` needs: the job's named input and
+    output files and its wildcards, for `snakemake.input.NAME`, ... (Snakemake tracks
+    the files themselves)."""
+    return warm_client.files_text(input, output, wildcards)
 
 
 _warm = {}

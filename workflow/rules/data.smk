@@ -21,6 +21,7 @@ rule dataset:
             entry=lambda w: dataset_params(w.dataset),
             release=lambda w: capture_release(w.dataset) or None,
         ),
+        files=job_files,
     shell:
         python_job("make_dataset")
 
@@ -45,6 +46,7 @@ rule variants_shard:
             variants=lambda w: config["datasets"][w.dataset]["variants"],
             sspi_weights=config["photon"].get("sspi_weights"),
         ),
+        files=job_files,
     shell:
         python_job("variants_shard")
 
@@ -70,6 +72,7 @@ rule variants_merge:
         runtime=res("variants_merge", "runtime", 10),
     params:
         job=job_params(),
+        files=job_files,
     shell:
         python_job("variants_merge")
 
@@ -102,5 +105,6 @@ rule data_pictures:
         runtime=res("data_pictures", "runtime", 10),
     params:
         job=job_params(),
+        files=job_files,
     shell:
         python_job("data_pictures")

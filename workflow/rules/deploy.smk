@@ -24,6 +24,7 @@ rule model_card:
         job=job_params(
             facts=card_facts,
         ),
+        files=job_files,
     shell:
         python_job("model_card")
 
@@ -51,5 +52,6 @@ rule export_onnx:
         job=job_params(
             device=config["device"],
         ),
+        files=job_files,
     shell:
         python_job("export_onnx")

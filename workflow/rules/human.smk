@@ -26,9 +26,10 @@ rule initial_set_human:
         runtime=res("initial_set_human", "runtime", 5),
     params:
         job=job_params(
-            al=lambda w: config["datasets"][w.dataset]["al"],
+            al=lambda w: initial_set_params(w.dataset),
             seed_labels=lambda w: config["datasets"][w.dataset].get("seed_labels"),
         ),
+        files=job_files,
     shell:
         python_job("initial_set_human")
 
@@ -61,6 +62,7 @@ rule query_human:
             ).as_dict(),
             batch=query_batch,
         ),
+        files=job_files,
     shell:
         python_job("query")
 
@@ -90,6 +92,7 @@ rule to_label_initial:
             model_cfg=None,
             model_version="",
         ),
+        files=job_files,
     shell:
         python_job("label_batch")
 
@@ -123,6 +126,7 @@ rule to_label_round:
             ),
             model_version=lambda w: f"{w.method} seed{w.seed} round{int(w.round) - 1}",
         ),
+        files=job_files,
     shell:
         python_job("label_batch")
 
@@ -154,5 +158,6 @@ rule accept_labels:
             labels_file=labels_file,
             export_file=labels_export,
         ),
+        files=job_files,
     shell:
         python_job("accept_labels")

@@ -44,6 +44,7 @@ rule table:
             ),
             notes=lambda w: training_notes(config, w.dataset),
         ),
+        files=job_files,
     shell:
         python_job("table")
 
@@ -77,6 +78,7 @@ rule curves:
             levels=False,
             families=lambda w: budget_families(config, w.dataset, METHODS),
         ),
+        files=job_files,
     shell:
         python_job("curves")
 
@@ -103,6 +105,7 @@ use rule curves as level_curves with:
             levels=True,
             families=lambda w: budget_families(config, w.dataset, METHODS),
         ),
+        files=job_files,
 
 
 rule summary:
@@ -130,6 +133,7 @@ rule summary:
             notes=lambda w: dataset_notes(w.dataset),
             families=lambda w: budget_families(config, w.dataset, METHODS),
         ),
+        files=job_files,
     shell:
         python_job("summary")
 
@@ -151,6 +155,7 @@ rule run_config:
         job=job_params(
             config=config,
         ),
+        files=job_files,
     shell:
         python_job("run_config")
 
@@ -204,5 +209,6 @@ rule stats:
                 config, config["datasets"][w.dataset]["variants"]["n"]
             ),
         ),
+        files=job_files,
     shell:
         python_job("stats")

@@ -28,6 +28,7 @@ rule robustness_grid:
         job=job_params(
             grid=lambda w: robustness_grid(w.dataset),
         ),
+        files=job_files,
     shell:
         python_job("robustness_grid")
 
@@ -62,6 +63,7 @@ rule robustness_eval:
             },
             device=config["device"],
         ),
+        files=job_files,
     shell:
         python_job("robustness_eval")
 
@@ -102,5 +104,6 @@ rule robustness_report:
         runtime=res("robustness_report", "runtime", 10),
     params:
         job=job_params(),
+        files=job_files,
     shell:
         python_job("robustness_report")

@@ -32,6 +32,7 @@ which); otherwise it starts its own as usual.
 from __future__ import annotations
 
 import argparse
+import contextlib
 import importlib
 import json
 import os
@@ -57,6 +58,9 @@ from spl_al.experiment.warm_client import (
     run_in_server,
     run_script,
 )
+
+FOLDER_PREFIX = "spl-al-warm-"
+"""The name of the private folder ``Server.start`` makes for a server's socket."""
 
 PRELOAD = (
     "numpy",
@@ -189,8 +193,9 @@ def _child(conn: socket.socket) -> None:
 
 def serve(address: str, preload=PRELOAD, parent_pid: int | None = None) -> None:
     """Listen at ``address`` and fork a child per job until SIGTERM, or until
-    ``parent_pid`` (the Snakemake that started it) is gone; then remove the socket and
-    its ``.json`` (what the server imports, for ``shared_server``).
+    ``parent_pid`` (the Snakemake that started it) is gone, even if killed with SIGKILL;
+    then remove the socket, its ``.json`` (what the server imports, for
+    ``shared_server``) and the folder ``Server.start`` made for them.
 
     The socket is bound before the imports, so jobs that connect meanwhile wait in the
     backlog instead of running cold. The parent never runs a torch operation: forking
@@ -227,6 +232,10 @@ def serve(address: str, preload=PRELOAD, parent_pid: int | None = None) -> None:
         if os.getpid() == owner:  # not a child caught between fork and its own handlers
             for path in (address, f"{address}.json"):
                 Path(path).unlink(missing_ok=True)
+            folder = Path(address).parent
+            if folder.name.startswith(FOLDER_PREFIX):  # ours (Server.start): gone with us
+                with contextlib.suppress(OSError):
+                    folder.rmdir()
 
 
 def _exit_cleanly(_signum, _frame):
@@ -278,7 +287,7 @@ class Server:
     @classmethod
     def start(cls, log_path, wait_s: float = 10.0) -> Server:
         """Start a server whose output goes to ``log_path``; returns once it listens."""
-        folder = Path(tempfile.mkdtemp(prefix="spl-al-warm-"))  # private (0700)
+        folder = Path(tempfile.mkdtemp(prefix=FOLDER_PREFIX))  # private (0700)
         Path(log_path).parent.mkdir(parents=True, exist_ok=True)
         with open(log_path, "w") as log:
             process = subprocess.Popen(

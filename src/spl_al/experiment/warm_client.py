@@ -4,14 +4,15 @@ A rule of the workflow runs its script through this file, not through Snakemake'
 ``script:`` directive, whose preamble imports Snakemake in every job's process
 (~0.25 CPU-s a job on a 2-core AVX2 CPU, a third of the test suite's CPU):
 
-    python -S -P .../spl_al/experiment/warm_client.py SCRIPT LOG THREADS JOB
+    python -S -P .../spl_al/experiment/warm_client.py SCRIPT LOG THREADS FILES SETTINGS
 
-``JOB`` holds what the script reads from its ``snakemake`` object: the job's ``input``,
-``output``, ``params`` and ``wildcards``, as a Python literal (``job_text`` writes it
-in the Snakemake process). The client hands the script, the job and its standard streams to
-the warm server, whose forked child runs the script with a ``Job`` as ``snakemake``;
-with no server listening it runs the script itself, after the site-packages it skipped
-(``-S``) at start-up. Either way the script sees the same object and does the same.
+``FILES`` and ``SETTINGS`` hold what the script reads from its ``snakemake`` object: the
+job's ``input``, ``output`` and ``wildcards`` (``files_text``), and its ``params``
+(``job_settings``), each as a Python literal written in the Snakemake process. The client
+hands the script, the job and its standard streams to the warm server, whose forked
+child runs the script with a ``Job`` as ``snakemake``; with no server listening it runs
+the script itself, after the site-packages it skipped (``-S``) at start-up. Either way
+the script sees the same object and does the same.
 """
 
 from __future__ import annotations
@@ -62,28 +63,44 @@ class Files(list):
 class Job:
     """The ``snakemake`` object of a script run through this client: ``input``,
     ``output``, ``log`` (``Files``), ``params`` and ``wildcards`` (attributes), and
-    ``threads``, from the job's text (``job_text``)."""
+    ``threads``, from the job's files (``files_text``) and settings (``job_settings``)."""
 
-    def __init__(self, text: str, log: str, threads: int) -> None:
+    def __init__(self, files: str, settings: str, log: str, threads: int) -> None:
         import ast
 
-        job = ast.literal_eval(text)
+        job = ast.literal_eval(files)
         self.input = Files(**job["input"])
         self.output = Files(**job["output"])
         self.log = Files([log])
-        self.params = SimpleNamespace(**job["params"])
+        self.params = SimpleNamespace(**ast.literal_eval(settings))
         self.wildcards = SimpleNamespace(**job["wildcards"])
         self.threads = int(threads)
 
 
-def job_text(input, output, wildcards, params: dict) -> str:
-    """One job as a Python literal for ``Job``: ``input``/``output`` are Snakemake's
-    named file lists (each name maps to a path or a list of paths), ``params`` plain
-    values (a literal, not JSON, so that number keys and tuples come back as they were).
+def job_settings(params: dict) -> dict:
+    """``params`` (plain values: a job's settings), checked to read back as themselves
+    from their ``repr``, the form the job's command carries them in (a literal, not
+    JSON, so that number keys and tuples come back as they were).
 
     Raises:
-        ValueError: a param value that does not read back as itself.
+        ValueError: a value that does not read back as itself.
     """
+    import ast  # (here and in Job: not at the top, where every job's client would pay it)
+
+    try:
+        same = ast.literal_eval(repr(params)) == params
+    except (ValueError, SyntaxError):
+        same = False
+    if not same:
+        raise ValueError(
+            f"a job's params must be plain values (str, numbers, lists, dicts): {params!r}."
+        )
+    return params
+
+
+def files_text(input, output, wildcards) -> str:
+    """A job's files and wildcards as a Python literal for ``Job``: ``input``/``output``
+    are Snakemake's named file lists (each name maps to a path or a list of paths)."""
 
     def files(named) -> dict:
         names = {}
@@ -93,25 +110,7 @@ def job_text(input, output, wildcards, params: dict) -> str:
         return {"values": [str(v) for v in named], "names": names}
 
     wildcard_names = {name: str(getattr(wildcards, name)) for name in wildcards.keys()}  # noqa: SIM118
-    import ast  # (here and in Job: not at the top, where every job's client would pay it)
-
-    text = repr(
-        {
-            "input": files(input),
-            "output": files(output),
-            "wildcards": wildcard_names,
-            "params": params,
-        }
-    )
-    try:
-        same = ast.literal_eval(text)["params"] == params
-    except (ValueError, SyntaxError):
-        same = False
-    if not same:
-        raise ValueError(
-            f"a job's params must be plain values (str, numbers, lists, dicts): {params!r}."
-        )
-    return text
+    return repr({"input": files(input), "output": files(output), "wildcards": wildcard_names})
 
 
 def run_script(script: str, job: Job) -> None:
@@ -164,16 +163,16 @@ def run_in_server(address: str, request: dict) -> int | None:
 
 
 def main(argv: list[str] | None = None) -> None:
-    """Command line: ``warm_client.py SCRIPT LOG THREADS JOB`` (see the module)."""
-    script, log, threads, text = sys.argv[1:] if argv is None else argv
-    request = {"script": script, "job": (text, log, int(threads))}
+    """Command line: ``warm_client.py SCRIPT LOG THREADS FILES SETTINGS`` (the module)."""
+    script, log, threads, files, settings = sys.argv[1:] if argv is None else argv
+    request = {"script": script, "job": (files, settings, log, int(threads))}
     address = os.environ.get(SOCKET_ENV)
     code = run_in_server(address, request) if address else None
     if code is None:
         import site
 
         site.main()  # the site-packages that -S left out: the script imports the library
-        run_script(script, Job(text, log, int(threads)))
+        run_script(script, Job(files, settings, log, int(threads)))
     elif code != 0:
         sys.exit(code)
 
