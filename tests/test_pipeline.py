@@ -194,6 +194,11 @@ def test_paired_statistics_claims_and_robustness_map(ci_results):
     assert (claims["verdict"] == "inconclusive").all()
     assert claims["reason"].str.contains("too few seeds").all()
     assert "inconclusive" in (cls / "claims.md").read_text()
+    # the verdicts name the precision their models were trained at, as the rounds say
+    trained = json.loads((ci_results / "real_cls/duis/seed1/round1/metrics.json").read_text())
+    assert set(claims["precision"]) == {trained["precision"]}
+    assert f"(models trained in {trained['precision']})" in (cls / "claims.md").read_text()
+    assert json.loads((cls / "summary.json").read_text())["precision"] == trained["precision"]
     aubc = json.loads((cls / "summary.json").read_text())["methods"]["duis"]["aubc"]
     assert aubc["n"] == 2 and aubc["ci_low"] <= aubc["mean"] <= aubc["ci_high"]
     assert "n = 2 seeds per cell" in (cls / "budget.md").read_text()
@@ -501,3 +506,23 @@ def test_slurm_runs_the_ci_dag_to_identical_tables(ci_results, slurm_cluster, tm
     differ = [name for name in local if ours[name] != local[name]]
     assert not differ, f"tables that differ from the local run: {differ}"
     assert labeled_sets(results, "real_cls") == labeled_sets(ci_results, "real_cls")
+
+
+def test_the_precision_benchmark_compares_two_runs_claim_by_claim(ci_results, tmp_path):
+    """python -m spl_al.bench precision: a run compared with itself (tables copied as a
+    bf16 and an fp32 run) agrees on every pair and claim; the folders given in the
+    wrong order are refused in one sentence."""
+    from spl_al.bench import precision
+
+    folders = {}
+    for name in ("bf16", "fp32"):
+        tables = tmp_path / name / "real_cls" / "tables"
+        shutil.copytree(ci_results / "real_cls" / "tables", tables)
+        summary = json.loads((tables / "summary.json").read_text())
+        (tables / "summary.json").write_text(json.dumps({**summary, "precision": name}))
+        folders[name] = tmp_path / name
+    text = precision.report(folders, "real_cls")
+    assert "| duis − syn_diversity |" in text and "**no**" not in text
+    assert "DUIS has the largest AUBC over query rounds" in text
+    with pytest.raises(ValueError, match="trained in fp32, not bf16"):
+        precision.report({"bf16": folders["fp32"], "fp32": folders["bf16"]}, "real_cls")

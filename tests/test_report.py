@@ -668,3 +668,26 @@ def test_no_title_or_label_of_a_picture_reaches_past_its_figure(tmp_path, monkey
     assert len(saved) >= 9
     outside = {name: texts_outside(fig) for name, fig in saved.items()}
     assert {name: texts for name, texts in outside.items() if texts} == {}
+
+
+def test_a_dataset_whose_rounds_were_trained_at_two_precisions_is_refused():
+    """A bf16 and an fp32 run of one config reach different verdicts: one table never
+    mixes them, and the error names both precisions and a record of each."""
+    from spl_al.report import summary, trained_at
+
+    records = make_records()
+    for record in records:
+        record["precision"] = "bf16"
+    assert trained_at(records_frame(records)) == "bf16"
+    assert summary(records_frame(records))["precision"] == "bf16"
+    records[-1]["precision"] = "fp32"
+    with pytest.raises(ValueError, match=r"mixes rounds trained at different precisions") as err:
+        records_frame(records)
+    assert "bf16 (records[0])" in str(err.value) and f"fp32 (records[{len(records) - 1}])" in str(
+        err.value
+    )
+    records[-1]["precision"] = "half"
+    with pytest.raises(ValueError, match=r"key 'precision' must be one of"):
+        records_frame(records)
+    # records of an older spl-al say nothing: no precision, and nothing to refuse
+    assert trained_at(records_frame(make_records())) == ""

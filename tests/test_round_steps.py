@@ -180,3 +180,51 @@ def test_the_same_weights_save_to_the_same_bytes(tmp_path):
     assert first == (tmp_path / "b" / "model.pt").read_bytes()
     state = torch.load(tmp_path / "a" / "model.pt", weights_only=True)
     assert torch.equal(state["weight"], model.weight.detach())
+
+
+@pytest.mark.parametrize("strategy", ["duis", "diversity", "typiclust", "margin"])
+def test_the_same_weights_pick_the_same_groups_whatever_the_training_precision(tmp_path, strategy):
+    """Scoring is the acquisition's measurement: the same weights over the same pool give
+    the same inputs, so the same picks, whether the round trained in bf16 or in fp32
+    (MEASURE_PRECISION). Scored under bf16 autocast instead, the same weights give
+    other numbers: the rounding that made verdicts flip between precisions."""
+    from spl_al.experiment.plan import MethodSpec
+    from spl_al.experiment.round_steps import load_model, score_pool
+    from spl_al.scoring import compute_inputs
+    from spl_al.strategies import get
+
+    data_path, labeled = _dataset(tmp_path)
+    own = _files(tmp_path, "own")
+    _train(data_path, labeled, {**SETUP, "method": {"strategy": "random"}}, ROUND0, own)
+    data = Dataset.load(data_path)
+    model = load_model(data, SETUP["train"]["model"], own.model)
+    method = MethodSpec(strategy, strategy, use_variants=True)
+    pool = np.arange(6)
+    picks, inputs = {}, {}
+    for precision in ("bf16", "fp32"):
+        out = tmp_path / f"{precision}.npz"
+        compute = Compute("cpu", precision=precision)
+        score_pool(model, data, labeled=pool, method=method, out_path=out, compute=compute)
+        inputs[precision] = StrategyInputs.load(out)
+        rng = np.random.default_rng(0)
+        params = {"n_cand": 8} if strategy in ("duis", "diversity") else {}
+        picks[precision] = get(strategy, **params).select(inputs[precision], 4, rng).tolist()
+    for name in ("unlabeled_idx", "labeled_idx", *ARRAY_FIELDS):
+        a, b = getattr(inputs["bf16"], name), getattr(inputs["fp32"], name)
+        assert (a is None) == (b is None), name
+        if a is not None:
+            np.testing.assert_array_equal(a, b, err_msg=name)
+    assert picks["bf16"] == picks["fp32"]
+    # the mechanism: bf16 autocast rounds what a strategy ranks by
+    depth, valid = data.groups(data.train_idx, n_variants=2)
+    unlabeled = np.setdiff1d(np.arange(len(data.train_idx)), pool)
+    needs = {"features", "margin_inconsistency"}
+    rounded = [
+        compute_inputs(
+            model, needs, depth_m=depth, valid=valid, unlabeled_idx=unlabeled,
+            labeled_idx=pool, device="cpu", precision=p,
+        )
+        for p in ("bf16", "fp32")
+    ]  # fmt: skip
+    assert not np.array_equal(rounded[0].features, rounded[1].features)
+    assert not np.array_equal(rounded[0].inconsistency, rounded[1].inconsistency)

@@ -109,6 +109,8 @@ def make_stats(metrics_paths, experiments: dict, sweeps: dict, out: dict) -> Non
     budget_exp = experiments.get("budget", {})
     in_paper = experiments.get("levels", {}).get("in_paper", True)
     verdicts = claims(stored, budget_exp.get("families"), levels_in_paper=in_paper)
+    # a verdict holds at the precision its models were trained at (docs/benchmarks.md)
+    verdicts["precision"] = report.trained_at(df)
     atomic_write(out["claims_csv"], lambda tmp: verdicts.to_csv(tmp, index=False))
     name = str(df["dataset"].iloc[0])
     atomic_write_text(out["claims_md"], render_claims_markdown(verdicts, dataset=name))

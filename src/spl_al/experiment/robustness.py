@@ -199,14 +199,14 @@ def evaluate_grid(
     ``model_paths``: one model per seed of ``names["seeds"]`` (same order);
     ``names``: dataset, method, seeds, round (recorded as they are). Each model's
     cells are evaluated in one pass (condition ids stand in for MSPPP levels in
-    ``evaluate``) at ``compute``'s device and precision; one record per seed, with the
-    precision used.
+    ``evaluate``) on ``compute``'s device at ``MEASURE_PRECISION`` (fp32); one record per
+    seed, with the precision its model was trained at.
     """
     import torch
 
     from spl_al.data import SCENE_FIELDS, Dataset
     from spl_al.experiment.round_steps import model_for, resolved_for
-    from spl_al.training import evaluate
+    from spl_al.training import MEASURE_PRECISION, evaluate
 
     model_paths = [model_paths] if isinstance(model_paths, str | Path) else list(model_paths)
     seeds = [int(s) for s in names["seeds"]]
@@ -238,7 +238,7 @@ def evaluate_grid(
             classes=dataset.classes,
             device=compute.device,
             batch_size=batch_size,
-            precision=compute.precision,
+            precision=MEASURE_PRECISION,
         )
         per_cell = metrics["per_level"]
         records.append(

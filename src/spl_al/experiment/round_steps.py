@@ -189,13 +189,13 @@ def fit_and_evaluate(
     ``given``; ``n_variants`` variants each) and evaluate it on the test split.
 
     ``train_setup``: ``model`` (arch and parameters) and ``fit`` (a TrainConfig).
-    ``compute``: resolved (``Compute.resolved``); its precision is the fit's and the
-    evaluation's, and the one the ``Fit`` records.
+    ``compute``: resolved (``Compute.resolved``); its precision is the fit's, the one
+    the ``Fit`` records (the evaluation runs at ``MEASURE_PRECISION``, fp32).
     ``warm_from``: the weights of the method's previous round; when given, training
     starts from them with ``fit`` updated by ``train_setup["warm_start"]`` (fewer
     steps), else from fresh weights.
     """
-    from spl_al.training import evaluate
+    from spl_al.training import MEASURE_PRECISION, evaluate
 
     started = time.perf_counter()
     model = (
@@ -228,7 +228,7 @@ def fit_and_evaluate(
         classes=dataset.classes,
         device=compute.device,
         batch_size=cfg.eval_batch_size,
-        precision=compute.precision,
+        precision=MEASURE_PRECISION,  # (not the training's: see its docstring)
     )
     groups = len(pool_idx)
     return Fit(
@@ -343,6 +343,7 @@ def _score_every_need(model, dataset, *, pool_idx, m, out_path, compute) -> None
     from spl_al.scoring import compute_inputs
     from spl_al.strategies import StrategyInputs
     from spl_al.strategies.inputs import ARRAY_FIELDS, GROUP_NEEDS, NEEDS
+    from spl_al.training.precision import MEASURE_PRECISION
 
     unlabeled = np.setdiff1d(np.arange(len(dataset.train_idx)), pool_idx)
     passes = [(0, frozenset(NEEDS) - GROUP_NEEDS)] + ([(m, GROUP_NEEDS)] if m else [])
@@ -357,7 +358,7 @@ def _score_every_need(model, dataset, *, pool_idx, m, out_path, compute) -> None
             unlabeled_idx=unlabeled,
             labeled_idx=pool_idx,
             device=compute.device,
-            precision=compute.precision,
+            precision=MEASURE_PRECISION,
         )
         parts.update(
             {f: getattr(inputs, f) for f in ARRAY_FIELDS if getattr(inputs, f) is not None}
@@ -598,11 +599,12 @@ def score_pool(
     compute: Compute = LOCAL,
 ) -> dict:
     """Forward passes over the unlabeled training groups: exactly what the method's
-    strategy needs (``strategy.needs``), saved for the query step, at ``compute``'s
-    device and precision. No labels are read: the strategy inputs are built from
-    images and the model alone."""
+    strategy needs (``strategy.needs``), saved for the query step, on ``compute``'s
+    device at ``MEASURE_PRECISION`` (fp32), whatever precision trained the model. No
+    labels are read: the strategy inputs are built from images and the model alone."""
     from spl_al.scoring import compute_inputs
     from spl_al.strategies import get
+    from spl_al.training.precision import MEASURE_PRECISION
 
     started = time.perf_counter()
     # What to compute depends on the strategy alone, not on its parameters.
@@ -618,7 +620,7 @@ def score_pool(
         unlabeled_idx=unlabeled,
         labeled_idx=labeled,
         device=compute.device,
-        precision=compute.precision,
+        precision=MEASURE_PRECISION,
     )
     inputs.save(out_path)
     return {"unlabeled": int(unlabeled.size), "seconds": round(time.perf_counter() - started, 3)}

@@ -29,6 +29,7 @@ from spl_al.report.records import (
     one_dataset,
     records_frame,
     round_for_budget,
+    trained_at,
     validate_record,
 )
 from spl_al.report.render import latex_escape, render_latex, render_markdown
@@ -65,6 +66,7 @@ __all__ = [
     "save_figure",
     "sensitivity_table",
     "summary",
+    "trained_at",
     "validate_record",
     "write_json",
     "write_table",

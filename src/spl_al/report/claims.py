@@ -557,7 +557,10 @@ def render_claims_markdown(frame: pd.DataFrame, dataset: str | None = None) -> s
     extensions: claim, verdict marked with its rule, reason, seeds needed, evidence; a
     footnote per rule the table uses, then the seeds-needed note."""
     name = dataset or (frame["dataset"].iloc[0] if not frame.empty else "")
-    lines = [f"**Claims checked on {name}.**"]
+    precision = frame["precision"].iloc[0] if "precision" in frame and not frame.empty else ""
+    has = isinstance(precision, str) and precision
+    trained = f" (models trained in {precision})" if has else ""
+    lines = [f"**Claims checked on {name}{trained}.**"]
     if frame.empty:
         return (
             "\n".join([*lines, "", "No claim's experiment is configured for this dataset."]) + "\n"

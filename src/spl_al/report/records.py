@@ -52,8 +52,12 @@ FRAME_COLUMNS = (
     "train_seconds",
     "train_steps",
     "images_seen",
+    "precision",
     "source",
 )
+
+# What a round's model may have been trained at (its record's ``precision``).
+TRAINED_AT = ("fp32", "bf16", "fp16")
 
 # A record's ratio may be rounded when written; beyond this it contradicts n_labeled / n_total.
 _RATIO_TOLERANCE = 1e-3
@@ -71,6 +75,23 @@ def _unit_interval(x) -> bool:
     return _is_real(x) and 0.0 <= float(x) <= 1.0
 
 
+def _check_optional(record: Mapping, bad) -> None:
+    """Raise ``bad(key, expected)`` for an optional key of a record that is present but
+    wrong: n_pool, train_seconds, train_steps, images_seen, precision."""
+    n_pool = record.get("n_pool")
+    if n_pool is not None and not (_is_int(n_pool) and n_pool >= 0):
+        raise bad("n_pool", "an integer >= 0")
+    train_seconds = record.get("train_seconds")
+    if train_seconds is not None and not (_is_real(train_seconds) and train_seconds >= 0):
+        raise bad("train_seconds", "a number of seconds >= 0")
+    for key in ("train_steps", "images_seen"):
+        count = record.get(key)
+        if count is not None and not (_is_int(count) and count >= 1):
+            raise bad(key, "an integer >= 1")
+    if record.get("precision", TRAINED_AT[0]) not in TRAINED_AT:
+        raise bad("precision", f"one of {list(TRAINED_AT)}")
+
+
 def validate_record(record, where: str = "record") -> dict:
     """Check one metrics record against the contract and return its frame row.
 
@@ -79,7 +100,8 @@ def validate_record(record, where: str = "record") -> dict:
     Required: dataset, method, metric (non-empty strings), seed, round, n_labeled,
     n_total (integers), value (in [0, 1]), synthetic_standin (bool). Optional, checked
     when present: n_pool, ratio (must equal n_labeled / n_total), per_level, train_seconds,
-    train_steps and images_seen (integers >= 1).
+    train_steps and images_seen (integers >= 1), precision (one of ``TRAINED_AT``; "" in
+    the frame when absent).
     """
     if not isinstance(record, Mapping):
         raise ValueError(f"{where}: expected a JSON object, got {type(record).__name__}.")
@@ -109,16 +131,9 @@ def validate_record(record, where: str = "record") -> dict:
         _is_real(record["ratio"]) and abs(float(record["ratio"]) - ratio) <= _RATIO_TOLERANCE
     ):
         raise bad("ratio", f"n_labeled / n_total = {ratio:.4f}")
-    n_pool = record.get("n_pool")
-    if n_pool is not None and not (_is_int(n_pool) and n_pool >= 0):
-        raise bad("n_pool", "an integer >= 0")
-    train_seconds = record.get("train_seconds")
-    if train_seconds is not None and not (_is_real(train_seconds) and train_seconds >= 0):
-        raise bad("train_seconds", "a number of seconds >= 0")
+    _check_optional(record, bad)
+    n_pool, train_seconds = record.get("n_pool"), record.get("train_seconds")
     counts = {key: record.get(key) for key in ("train_steps", "images_seen")}
-    for key, count in counts.items():
-        if count is not None and not (_is_int(count) and count >= 1):
-            raise bad(key, "an integer >= 1")
 
     per_level = record.get("per_level") or {}
     if not isinstance(per_level, Mapping):
@@ -144,6 +159,7 @@ def validate_record(record, where: str = "record") -> dict:
         "synthetic_standin": record["synthetic_standin"],
         "train_seconds": float(train_seconds) if train_seconds is not None else math.nan,
         **{key: float(v) if v is not None else math.nan for key, v in counts.items()},
+        "precision": record.get("precision") or "",
         "source": where,
     }
 
@@ -177,7 +193,32 @@ def _frame(rows: list[dict]) -> pd.DataFrame:
     for dataset, metrics in frame.groupby("dataset")["metric"].unique().items():
         if len(metrics) > 1:
             raise ValueError(f"dataset {dataset!r} mixes metrics {sorted(metrics)}; expected one.")
+    _check_one_precision(frame)
     return frame.sort_values(key, ignore_index=True)
+
+
+def _check_one_precision(frame: pd.DataFrame) -> None:
+    """A ValueError unless each dataset's rounds were trained at one precision: a bf16
+    and an fp32 run of the same config reach different verdicts (docs/benchmarks.md,
+    precision and verdicts), so one table never mixes them."""
+    known = frame[frame["precision"] != ""]
+    for dataset, part in known.groupby("dataset"):
+        if part["precision"].nunique() > 1:
+            first = part.drop_duplicates("precision").sort_values("precision")
+            found = ", ".join(
+                f"{p} ({s})" for p, s in zip(first["precision"], first["source"], strict=True)
+            )
+            raise ValueError(
+                f"dataset {dataset!r} mixes rounds trained at different precisions, {found}; "
+                "rerun them at one precision (the config's `precision:`, e.g. with "
+                "--forcerun train_initial train) so that its tables compare like with like."
+            )
+
+
+def trained_at(df: pd.DataFrame) -> str:
+    """The one precision the frame's rounds were trained at ("" when not recorded)."""
+    known = sorted(set(df["precision"]) - {""})
+    return known[0] if len(known) == 1 else ""
 
 
 def records_frame(records: Iterable[Mapping]) -> pd.DataFrame:

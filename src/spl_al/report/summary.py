@@ -8,7 +8,7 @@ import pandas as pd
 
 from spl_al.report.aggregate import method_curves
 from spl_al.report.display import ordered_methods
-from spl_al.report.records import one_dataset
+from spl_al.report.records import one_dataset, trained_at
 from spl_al.report.stats import (
     aubc_per_seed,
     curve_area,
@@ -41,7 +41,8 @@ def _aubc(areas: pd.DataFrame, span: pd.DataFrame) -> dict:
 def summary(df: pd.DataFrame, dataset: str | None = None) -> dict:
     """Per-method summary of one dataset, in the metric's own scale [0, 1].
 
-    Returns ``{"dataset", "metric", "synthetic_standin", "n_seeds", "methods": {method:
+    Returns ``{"dataset", "metric", "synthetic_standin", "n_seeds", "precision" (what
+    the models were trained at; null when the records do not say), "methods": {method:
     {"auc", "final_mean", "final_std", "final_round", "final_n_labeled", "final_ratio",
     "n_seeds", "n_rounds", "partial_rounds"}}}``. ``auc`` is ``curve_area`` of the mean
     curve (mean over the seeds present at each round); ``final_*`` describe the last
@@ -78,5 +79,6 @@ def summary(df: pd.DataFrame, dataset: str | None = None) -> dict:
         "metric": str(d["metric"].iloc[0]),
         "synthetic_standin": bool(d["synthetic_standin"].any()),
         "n_seeds": int(d["seed"].nunique()),
+        "precision": trained_at(d) or None,
         "methods": methods,
     }

@@ -12,10 +12,12 @@ Public API:
 
 from spl_al.training.fit import flatten_groups, masked_cross_entropy, train
 from spl_al.training.metrics import confusion_per_image, evaluate, summarise
+from spl_al.training.precision import MEASURE_PRECISION
 from spl_al.training.predict import Predictions, iter_forward, pool_pixels, predict
 from spl_al.training.recipe import TrainConfig, deterministic_algorithms, resolve_device
 
 __all__ = [
+    "MEASURE_PRECISION",
     "Predictions",
     "TrainConfig",
     "confusion_per_image",

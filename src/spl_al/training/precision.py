@@ -25,6 +25,16 @@ import contextlib
 import torch
 
 PRECISIONS = ("auto", "fp32", "bf16", "fp16")
+
+MEASURE_PRECISION = "fp32"
+"""The precision of the forward passes whose numbers decide something, whatever
+precision trained the model: the pool's probabilities and features that a strategy
+selects from (margins, DUIS's inconsistency between a group's images, the k-means
+pool, TypiClust's and ProbCover's neighbourhoods) and the test metrics of every round.
+A bf16 number keeps 8 bits of mantissa, so bf16 features and logits are rounded to a
+few thousand distinct values, and what a strategy ranks by (near-tied margins, the KL
+divergence between a group's images) moves with that rounding. Only training runs at
+the configured precision."""
 _DTYPES = {"bf16": torch.bfloat16, "fp16": torch.float16}
 
 

@@ -1,0 +1,170 @@
+"""Verdicts at two precisions: does a claim's verdict depend on the CPU's bf16?
+
+``config/precision.yaml`` is the decisive real_cls subset (seeds 1-8; Syn+TypiClust,
+Syn+Diversity, DUIS; rounds 0-3) that once reached opposite verdicts at bf16 and fp32
+on one CPU. This benchmark compares two finished runs of it, one trained in bf16 and
+one in fp32, pair by pair (AUBC over the query rounds, paired over seeds: the
+difference, its 95% interval and p) and claim by claim, and says whether each verdict
+agrees:
+
+    python -m spl_al.bench precision --run                  # both runs, then the table
+    python -m spl_al.bench precision RESULTS_BF16 RESULTS_FP32
+
+``--run`` runs Snakemake on this checkout's workflow twice, into
+``results-precision/bf16`` and ``results-precision/fp32`` (~15 min on a 2-core EPYC
+with AVX512-BF16), from the folder it is started in.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pandas as pd
+
+from spl_al.bench.estimate import cpu_name
+from spl_al.bench.timing import markdown_table
+
+ROOT = Path(__file__).resolve().parents[3]
+CONFIG = ROOT / "config" / "precision.yaml"
+PRECISIONS = ("bf16", "fp32")
+
+
+def run_both(folder: Path, jobs: int) -> dict[str, Path]:
+    """Run ``config/precision.yaml`` once per precision into ``folder/PRECISION``; the
+    folders by precision (a failed run raises)."""
+    out = {}
+    for precision in PRECISIONS:
+        results = folder / precision
+        cmd = [sys.executable, "-m", "snakemake", "-s", str(ROOT / "Snakefile"), f"-j{jobs}"]
+        cmd += ["--configfile", str(CONFIG)]
+        cmd += ["--config", f"precision={precision}", f"results={results}"]
+        started = time.perf_counter()
+        subprocess.run(cmd, check=True)
+        print(f"{precision}: {(time.perf_counter() - started) / 60:.1f} min", file=sys.stderr)
+        out[precision] = results
+    return out
+
+
+def _verdict(row) -> str:
+    """A paired comparison's verdict: which side it resolves for, or unresolved."""
+    if not bool(row["resolved"]):
+        return "unresolved"
+    return f"{row['method_a']} ahead" if row["diff"] > 0 else f"{row['method_b']} ahead"
+
+
+def pair_rows(tables: dict[str, Path]) -> list[list[str]]:
+    """One row per pair of methods: AUBC difference [95% CI], p and verdict at each
+    precision, and whether the verdicts agree."""
+    frames = {}
+    for precision, folder in tables.items():
+        cmp = pd.read_csv(folder / "comparisons.csv")
+        frames[precision] = cmp[(cmp["experiment"] == "budget") & (cmp["point"] == "AUBC")]
+    rows = []
+    first, second = (frames[p] for p in PRECISIONS)
+    for _, a in first.iterrows():
+        match = second[
+            (second["method_a"] == a["method_a"]) & (second["method_b"] == a["method_b"])
+        ]
+        if match.empty:
+            continue
+        b = match.iloc[0]
+        cells = [f"{a['method_a']} − {a['method_b']}"]
+        for row in (a, b):
+            cells.append(
+                f"{row['diff']:+.1f} [{row['ci_low']:+.1f}, {row['ci_high']:+.1f}], "
+                f"p = {row['p_value']:.2g}: {_verdict(row)}"
+            )
+        cells.append(f"{b['diff'] - a['diff']:+.1f}")
+        cells.append("yes" if _verdict(a) == _verdict(b) else "**no**")
+        rows.append(cells)
+    return rows
+
+
+def claim_rows(tables: dict[str, Path]) -> list[list[str]]:
+    """One row per claim both runs judged: its verdict at each precision, agreement."""
+    frames = {p: pd.read_csv(folder / "claims.csv") for p, folder in tables.items()}
+    first, second = (frames[p].set_index("claim_id") for p in PRECISIONS)
+    rows = []
+    for claim_id in [c for c in first.index if c in second.index]:
+        a, b = first.loc[claim_id, "verdict"], second.loc[claim_id, "verdict"]
+        rows.append([first.loc[claim_id, "claim"], a, b, "yes" if a == b else "**no**"])
+    return rows
+
+
+def _interval(aubc: dict) -> str:
+    """mean [low, high] in percent (the mean alone without an interval: one seed)."""
+    if aubc.get("ci_low") is None:
+        return f"{100 * aubc['mean']:.1f}"
+    return f"{100 * aubc['mean']:.1f} [{100 * aubc['ci_low']:.1f}, {100 * aubc['ci_high']:.1f}]"
+
+
+def aubc_rows(tables: dict[str, Path]) -> list[list[str]]:
+    """Each method's AUBC over the query rounds, mean [95% CI], at each precision."""
+    summaries = {
+        p: json.loads((folder / "summary.json").read_text()) for p, folder in tables.items()
+    }
+    rows = []
+    for method in summaries[PRECISIONS[0]]["methods"]:
+        cells = [method]
+        for precision in PRECISIONS:
+            aubc = summaries[precision]["methods"].get(method, {}).get("aubc")
+            cells.append(_interval(aubc) if aubc else "-")
+        rows.append(cells)
+    return rows
+
+
+def report(folders: dict[str, Path], dataset: str) -> str:
+    """The benchmark's Markdown: AUBC per method, pairs and claims side by side."""
+    tables = {p: Path(f) / dataset / "tables" for p, f in folders.items()}
+    for precision, folder in tables.items():
+        summary = json.loads((folder / "summary.json").read_text())
+        trained = summary.get("precision")
+        if trained not in (None, precision):
+            raise ValueError(
+                f"{folder}: its models were trained in {trained}, not {precision}; "
+                "give the bf16 run's results folder first, then the fp32 run's."
+            )
+    n = json.loads((tables["fp32"] / "summary.json").read_text())["n_seeds"]
+    head = (
+        f"## Verdicts at bf16 and at fp32: {dataset}, {n} seeds ({cpu_name()}, "
+        f"{os.cpu_count()} cores, {time.strftime('%Y-%m-%d')})\n\n"
+        "AUBC over the query rounds (%), mean [95% CI]:\n\n"
+    )
+    parts = [
+        head + markdown_table(["method", "bf16", "fp32"], aubc_rows(tables)),
+        "Paired AUBC differences (points) [95% CI], p, and what they resolve:\n\n"
+        + markdown_table(
+            ["pair", "bf16", "fp32", "fp32 − bf16", "same verdict"], pair_rows(tables)
+        ),
+        "Claims:\n\n"
+        + markdown_table(["claim", "bf16", "fp32", "same verdict"], claim_rows(tables)),
+    ]
+    return "\n\n".join(parts) + "\n"
+
+
+def main(argv: list[str]) -> int:
+    """Compare (or with ``--run`` make and compare) a bf16 and an fp32 run."""
+    parser = argparse.ArgumentParser(prog="python -m spl_al.bench precision", description=__doc__)
+    parser.add_argument("results", nargs="*", type=Path, help="RESULTS_BF16 RESULTS_FP32")
+    parser.add_argument("--run", action="store_true", help="run both precisions first")
+    parser.add_argument("--folder", type=Path, default=Path("results-precision"))
+    parser.add_argument("--jobs", "-j", type=int, default=2)
+    parser.add_argument("--dataset", default="real_cls")
+    args = parser.parse_args(argv)
+    if args.run:
+        folders = run_both(args.folder, args.jobs)
+    elif len(args.results) == 2:
+        folders = dict(zip(PRECISIONS, args.results, strict=True))
+    else:
+        parser.error("give RESULTS_BF16 RESULTS_FP32 (two results folders), or --run")
+    missing = [str(f) for f in folders.values() if not (f / args.dataset / "tables").is_dir()]
+    if missing:
+        parser.error(f"{', '.join(missing)}: no {args.dataset}/tables/ (a finished run's folder)")
+    print(report(folders, args.dataset))
+    return 0
