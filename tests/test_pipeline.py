@@ -526,3 +526,8 @@ def test_the_precision_benchmark_compares_two_runs_claim_by_claim(ci_results, tm
     assert "DUIS has the largest AUBC over query rounds" in text
     with pytest.raises(ValueError, match="trained in fp32, not bf16"):
         precision.report({"bf16": folders["fp32"], "fp32": folders["bf16"]}, "real_cls")
+    # --picks: each query redone from its weights, scored in bf16 and in fp32; Random
+    # reads no score, so it picks the same groups either way
+    picks = {row[0]: row for row in precision.pick_agreement(ci_results, "real_cls")}
+    assert set(picks) == {"random", "margin", "syn_diversity", "duis"}
+    assert picks["random"][1:] == ["100%", "100%", "2 of 2"]

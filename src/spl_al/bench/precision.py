@@ -119,6 +119,73 @@ def aubc_rows(tables: dict[str, Path]) -> list[list[str]]:
     return rows
 
 
+def pick_agreement(results: Path, dataset: str) -> list[list[str]]:
+    """Scoring precision alone: every query of a finished run redone from the round's
+    own weights, the pool scored once under bf16 autocast and once in fp32, the same
+    strategy and random stream picking from each. Per method: the share of picked groups
+    the two have in common (mean and lowest over the queries) and the queries that pick
+    the very same groups."""
+    import numpy as np
+    import yaml
+
+    from spl_al.data import Dataset
+    from spl_al.experiment.plan import batch_of, dataset_method
+    from spl_al.experiment.round_steps import load_model
+    from spl_al.pool import read_labeled
+    from spl_al.scoring import compute_inputs
+    from spl_al.strategies import get
+    from spl_al.strategies.inputs import GROUP_NEEDS
+
+    config = yaml.safe_load((results / "config.yaml").read_text())
+    entry = config["datasets"][dataset]
+    data = Dataset.load(results / dataset / "data" / "dataset.npz")
+    budget = entry["experiments"]["budget"]
+    rows = []
+    for name in budget["methods"]:
+        method = dataset_method(config, dataset, name)
+        strategy = get(method.strategy, **method.params)
+        m = data.n_variants if strategy.needs & GROUP_NEEDS else 0
+        depth, valid = data.groups(data.train_idx, n_variants=m)
+        shares = []
+        for seed in budget["seeds"]:
+            for r in range(int(budget["rounds"]) - 1):
+                run = results / dataset / name / f"seed{seed}"
+                labeled_path = (
+                    run / f"round{r}" / "labeled.json"
+                    if r
+                    else results / dataset / "initial" / f"seed{seed}.json"
+                )
+                labeled = read_labeled(labeled_path)
+                unlabeled = np.setdiff1d(np.arange(len(data.train_idx)), labeled)
+                model = load_model(data, entry["train"]["model"], run / f"round{r}" / "model.pt")
+                picks = []
+                for precision in PRECISIONS:
+                    inputs = compute_inputs(
+                        model,
+                        strategy.needs,
+                        depth_m=depth,
+                        valid=valid,
+                        unlabeled_idx=unlabeled,
+                        labeled_idx=labeled,
+                        device="cpu",
+                        precision=precision,
+                    )
+                    rng = np.random.default_rng([seed, r])
+                    batch = batch_of(entry["al"], r + 1, f"datasets.{dataset}.al.batch")
+                    picks.append(set(strategy.select(inputs, int(batch), rng)))
+                shares.append(len(picks[0] & picks[1]) / len(picks[1]))
+        same = sum(share == 1.0 for share in shares)
+        rows.append(
+            [
+                name,
+                f"{100 * np.mean(shares):.0f}%",
+                f"{100 * min(shares):.0f}%",
+                f"{same} of {len(shares)}",
+            ]
+        )
+    return rows
+
+
 def report(folders: dict[str, Path], dataset: str) -> str:
     """The benchmark's Markdown: AUBC per method, pairs and claims side by side."""
     tables = {p: Path(f) / dataset / "tables" for p, f in folders.items()}
@@ -156,6 +223,11 @@ def main(argv: list[str]) -> int:
     parser.add_argument("--folder", type=Path, default=Path("results-precision"))
     parser.add_argument("--jobs", "-j", type=int, default=2)
     parser.add_argument("--dataset", default="real_cls")
+    parser.add_argument(
+        "--picks",
+        action="store_true",
+        help="also redo each query of the bf16 run scored in bf16 and in fp32 (minutes)",
+    )
     args = parser.parse_args(argv)
     if args.run:
         folders = run_both(args.folder, args.jobs)
@@ -167,4 +239,11 @@ def main(argv: list[str]) -> int:
     if missing:
         parser.error(f"{', '.join(missing)}: no {args.dataset}/tables/ (a finished run's folder)")
     print(report(folders, args.dataset))
+    if args.picks:
+        rows = pick_agreement(folders["bf16"], args.dataset)
+        print(
+            "The bf16 run's queries redone from the same weights, the pool scored in bf16 "
+            "and in fp32 (groups picked in common):\n\n"
+            + markdown_table(["method", "mean", "lowest", "same groups"], rows)
+        )
     return 0
