@@ -142,6 +142,7 @@ def robustness_images(config: dict, dataset: str) -> int:
 
 def _measure(case) -> tuple[float, float]:
     from spl_al.bench.training import measure
+    from spl_al.training.precision import MEASURE_PRECISION
 
     task, model_cfg, fit, shape, precision, threads, steps, device = case
     return measure(
@@ -153,6 +154,7 @@ def _measure(case) -> tuple[float, float]:
         threads=threads,
         steps=steps,
         device=device,
+        infer_precision=MEASURE_PRECISION,  # scoring and evaluation: fp32 whatever trains
     )
 
 

@@ -79,8 +79,11 @@ def case_model(task: str, model_cfg: dict, shape, n_classes: int):
     return build_model(task, n_classes, arch=arch, **cfg)
 
 
-def measure(task, model_cfg, fit, *, shape, precision, threads, steps, device="cpu"):
-    """(train images/s, inference images/s) of one case."""
+def measure(
+    task, model_cfg, fit, *, shape, precision, threads, steps, device="cpu", infer_precision=None
+):
+    """(train images/s, inference images/s) of one case; inference at ``infer_precision``
+    (default: ``precision``)."""
     import torch
 
     from spl_al.training import TrainConfig, predict, train
@@ -101,6 +104,7 @@ def measure(task, model_cfg, fit, *, shape, precision, threads, steps, device="c
         train(model, depth, valid, targets, cfg=cfg, seed=0, device=device, log=io.StringIO())
         sync(device)
         rates.append(run_steps * batch / (time.perf_counter() - start))
+    infer_precision = infer_precision or precision
     predict(
         model,
         depth[:batch],
@@ -108,7 +112,7 @@ def measure(task, model_cfg, fit, *, shape, precision, threads, steps, device="c
         device=device,
         batch_size=batch,
         features="none",
-        precision=precision,
+        precision=infer_precision,
     )
     sync(device)
     start = time.perf_counter()
@@ -119,7 +123,7 @@ def measure(task, model_cfg, fit, *, shape, precision, threads, steps, device="c
         device=device,
         batch_size=batch,
         features="none",
-        precision=precision,
+        precision=infer_precision,
     )
     sync(device)
     return rates[-1], len(depth) / (time.perf_counter() - start)
