@@ -53,7 +53,8 @@ def _split(args: list[str]) -> tuple[tuple[str, ...], list[str]]:
     targets = [
         w
         for i, w in enumerate(args)
-        if not w.startswith("-") and (i == 0 or not args[i - 1].startswith("-"))
+        # (KEY=VALUE: a --config value, however many follow the flag)
+        if not w.startswith("-") and "=" not in w and (i == 0 or not args[i - 1].startswith("-"))
     ]
     return tuple(w for w in args if w not in targets), targets
 
