@@ -531,3 +531,30 @@ def test_comparisons_carry_the_paired_sd_and_the_rule():
     assert (cmp["rule"] == "small-n").all()  # three seeds
     # DUIS - Random per seed is 0.10 + JITTER; in pp, sd(JITTER) * 100
     assert cmp["sd_diff"].to_numpy() == pytest.approx(np.std(JITTER, ddof=1) * 100)
+
+
+def test_a_run_trained_in_bf16_decides_no_claim_and_says_what_its_seeds_read():
+    """Claims are decided in fp32 (the decisive runs'): a bf16 run's verdicts are kept
+    as reasons, its verdicts inconclusive; an fp32 run, and one whose records name no
+    precision, decide as before."""
+    from spl_al.report.claims import at_precision
+
+    frame = pd.DataFrame(
+        {
+            "claim_id": ["a", "b", "c"],
+            "verdict": ["supported", "contradicted", "inconclusive"],
+            "reason": ["all resolved for", "one resolved against", "too few seeds"],
+        }
+    )
+    for precision in ("fp32", ""):
+        same = at_precision(frame, precision)
+        assert same["verdict"].tolist() == frame["verdict"].tolist()
+        assert set(same["precision"]) == {precision}
+    bf16 = at_precision(frame, "bf16")
+    assert set(bf16["verdict"]) == {"inconclusive"} and set(bf16["precision"]) == {"bf16"}
+    assert bf16["reason"].iloc[1] == (
+        "trained in bf16, and claims are decided in fp32 (the decisive runs' precision); "
+        "at bf16 its seeds read: contradicted"
+    )
+    assert bf16["reason"].iloc[2] == "too few seeds"
+    assert bf16["seeds_read"].tolist() == frame["verdict"].tolist()

@@ -87,12 +87,15 @@ def pair_rows(tables: dict[str, Path]) -> list[list[str]]:
 
 
 def claim_rows(tables: dict[str, Path]) -> list[list[str]]:
-    """One row per claim both runs judged: its verdict at each precision, agreement."""
+    """One row per claim both runs judged: what each run's seeds read, agreement."""
     frames = {p: pd.read_csv(folder / "claims.csv") for p, folder in tables.items()}
     first, second = (frames[p].set_index("claim_id") for p in PRECISIONS)
+    # what each run's seeds read (a bf16 run decides no claim: its verdicts are
+    # inconclusive by rule, report.claims.at_precision)
+    column = "seeds_read" if "seeds_read" in first and "seeds_read" in second else "verdict"
     rows = []
     for claim_id in [c for c in first.index if c in second.index]:
-        a, b = first.loc[claim_id, "verdict"], second.loc[claim_id, "verdict"]
+        a, b = first.loc[claim_id, column], second.loc[claim_id, column]
         rows.append([first.loc[claim_id, "claim"], a, b, "yes" if a == b else "**no**"])
     return rows
 

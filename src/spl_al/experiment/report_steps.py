@@ -94,7 +94,7 @@ def make_stats(metrics_paths, experiments: dict, sweeps: dict, out: dict) -> Non
 
     from spl_al import report
     from spl_al.atomic import atomic_write_text
-    from spl_al.report.claims import claims, render_claims_markdown
+    from spl_al.report.claims import at_precision, claims, render_claims_markdown
     from spl_al.report.comparisons import comparisons, render_comparisons_markdown
     from spl_al.report.decomposition import decomposition, render_decomposition_markdown
     from spl_al.report.stat_figures import aubc_figure
@@ -109,8 +109,7 @@ def make_stats(metrics_paths, experiments: dict, sweeps: dict, out: dict) -> Non
     budget_exp = experiments.get("budget", {})
     in_paper = experiments.get("levels", {}).get("in_paper", True)
     verdicts = claims(stored, budget_exp.get("families"), levels_in_paper=in_paper)
-    # a verdict holds at the precision its models were trained at (docs/benchmarks.md)
-    verdicts["precision"] = report.trained_at(df)
+    verdicts = at_precision(verdicts, report.trained_at(df))  # decided in fp32 alone
     atomic_write(out["claims_csv"], lambda tmp: verdicts.to_csv(tmp, index=False))
     name = str(df["dataset"].iloc[0])
     atomic_write_text(out["claims_md"], render_claims_markdown(verdicts, dataset=name))

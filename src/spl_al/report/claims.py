@@ -506,6 +506,33 @@ def claims(
     return frame[list(COLUMNS)]
 
 
+DECIDING_PRECISION = "fp32"
+"""The precision claims are decided at: the decisive runs'. A run trained in bf16 is
+another draw of every seed's trajectory, and at 8 and 16 seeds its verdicts differed
+from an fp32 run's beyond what its intervals allowed (docs/benchmarks.md#precision-and-
+verdicts), so it decides nothing."""
+
+
+def at_precision(frame: pd.DataFrame, precision: str) -> pd.DataFrame:
+    """The claims of a run whose models were trained at ``precision`` ("" when its
+    records do not say), with a ``precision`` column and ``seeds_read``, the verdict
+    its own seeds give. A run trained at another precision than ``DECIDING_PRECISION``
+    decides no claim: a verdict other than inconclusive becomes inconclusive, its
+    reason naming the precision and what the run's seeds read."""
+    out = frame.copy()
+    out["precision"] = precision
+    out["seeds_read"] = out["verdict"]
+    if precision in ("", DECIDING_PRECISION) or out.empty:
+        return out
+    decided = out["verdict"] != INCONCLUSIVE
+    out.loc[decided, "reason"] = (
+        f"trained in {precision}, and claims are decided in {DECIDING_PRECISION} (the "
+        f"decisive runs' precision); at {precision} its seeds read: " + out.loc[decided, "verdict"]
+    )
+    out.loc[decided, "verdict"] = INCONCLUSIVE
+    return out
+
+
 _MARKS = {"5%": "¹", "small-n": "²"}
 
 
