@@ -148,9 +148,8 @@ def print_jobs_line():
     except Exception:  # a run without --cores (a cluster): one estimate per job
         at_once = 1
     jobs = len(workflow.dag)
-    from spl_al.bench.estimate import (
-        estimate_minutes,
-    )  # times each model: only when run
+    # (imported here: it times each model, only when a run starts)
+    from spl_al.bench.estimate import estimate_minutes
 
     settings = sum(
         bool(workflow.dag.reason(job).params_changed)
