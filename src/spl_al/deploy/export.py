@@ -19,11 +19,11 @@ the number of valid pixels it samples from varies per scan); run ``model.pt`` wi
 from __future__ import annotations
 
 import os
-import tempfile
 from pathlib import Path
 
 import numpy as np
 
+from spl_al.atomic import atomic_write
 from spl_al.deploy.card import card_path, file_sha256, write_card
 
 OPSET = 17
@@ -201,10 +201,9 @@ def export_onnx(model_path, out_path, *, dataset_path=None, card=None, log=print
         raise ValueError(NOT_EXPORTED[arch])
     model = deployed.runner.model
     depth, valid = _test_split(deployed.card, dataset_path)
-    fd, name = tempfile.mkstemp(prefix=f".{out_path.name}.", suffix=".tmp", dir=out_path.parent)
-    os.close(fd)
-    tmp = Path(name)
-    try:
+    exported = {}
+
+    def write_checked(tmp: Path) -> None:  # raising here leaves nothing at out_path
         write_onnx(model, tmp, deployed.image_shape)
         check = check_onnx(tmp, model, depth_m=depth, valid=valid)
         log(
@@ -220,10 +219,8 @@ def export_onnx(model_path, out_path, *, dataset_path=None, card=None, log=print
                 f"diff| {check['max_abs_logit_diff']:.3g} > {MAX_LOGIT_DIFF:g} or argmax "
                 f"agreement {check['argmax_agreement']:.4f} < {MIN_AGREEMENT}); not written."
             )
-        exported = {**deployed.card, "onnx": _onnx_section(out_path, tmp, check)}
+        exported.update({**deployed.card, "onnx": _onnx_section(out_path, tmp, check)})
         write_card(exported, card_path(out_path))
-        os.replace(tmp, out_path)
-    except BaseException:
-        tmp.unlink(missing_ok=True)
-        raise
+
+    atomic_write(out_path, write_checked)
     return exported

@@ -16,11 +16,12 @@ This module imports numpy only, so a selection step needs neither torch nor skle
 from __future__ import annotations
 
 import os
-import tempfile
 from dataclasses import dataclass, fields
 from pathlib import Path
 
 import numpy as np
+
+from spl_al.atomic import atomic_write
 
 # need name -> the StrategyInputs fields it fills
 NEEDS: dict[str, tuple[str, ...]] = {
@@ -128,19 +129,15 @@ class StrategyInputs:
             raise ValueError(f"strategy inputs lack {missing}; compute them with these needs.")
 
     def save(self, path: str | os.PathLike) -> None:
-        """Write every present array to an .npz file atomically (temp file + rename)."""
-        path = Path(path)
+        """Write every present array to an .npz file atomically (``spl_al.atomic``)."""
         arrays = {f.name: getattr(self, f.name) for f in fields(self)}
         arrays = {k: v for k, v in arrays.items() if v is not None}
-        path.parent.mkdir(parents=True, exist_ok=True)
-        fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".npz")
-        try:
-            with os.fdopen(fd, "wb") as fh:
+
+        def write(tmp: Path) -> None:
+            with open(tmp, "wb") as fh:  # (a file object: np.savez would add ".npz")
                 np.savez(fh, **arrays)
-            os.replace(tmp, path)
-        except BaseException:
-            Path(tmp).unlink(missing_ok=True)
-            raise
+
+        atomic_write(path, write)
 
     @classmethod
     def load(cls, path: str | os.PathLike) -> StrategyInputs:
