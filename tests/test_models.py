@@ -157,3 +157,36 @@ def test_seeded_initialisation_is_reproducible_and_leaves_global_rng_alone():
         next(a.parameters()).add_(1.0)
     reset_parameters(a, 7)
     assert all(torch.equal(a.state_dict()[k], sb[k]) for k in sa)
+
+
+def test_the_config_schema_names_exactly_the_registered_architectures():
+    """A newly registered model must also enter config/schema.yaml's `arch` enum (and
+    its description), else a config naming it fails validation."""
+    import re
+    from pathlib import Path
+
+    import yaml
+
+    schema = (Path(__file__).resolve().parents[1] / "config" / "schema.yaml").read_text()
+    arch = re.search(r"^(\s+)arch:\n\1  type: string\n\1  enum: (\[.*\])", schema, re.M)
+    assert arch is not None, "config/schema.yaml lost the train.model.arch enum"
+    registered = {name for archs in ARCHS.values() for name in archs}
+    assert set(yaml.safe_load(arch[2])) == registered
+
+
+def test_register_adds_an_architecture_and_refuses_a_taken_name(monkeypatch):
+    from spl_al.models import registry
+
+    monkeypatch.setitem(registry.ARCHS, "classification", dict(ARCHS["classification"]))
+
+    class Tiny(torch.nn.Module):
+        pass
+
+    registry.register("classification", "tiny")(Tiny)
+    assert list(registry.ARCHS["classification"])[-1] == "tiny"
+    registry.register("classification", "tiny2", default=True)(Tiny)
+    assert next(iter(registry.ARCHS["classification"])) == "tiny2"
+    with pytest.raises(ValueError, match="'smallcnn' for task 'classification' is already"):
+        registry.register("classification", "smallcnn")(Tiny)
+    with pytest.raises(ValueError, match="task must be one of"):
+        registry.register("detection", "x")

@@ -18,7 +18,8 @@ Public API:
 - ``reset_parameters(model, seed)``: deterministic re-initialisation.
 - ``seed_own_draws(model, seed)``: the model's own training draws (PointNet++'s point
   sampler) seeded, weights kept: what a fine-tuning does instead of re-initialising.
-- ``ARCHS``: the architectures per task (the first one is the task's default).
+- ``ARCHS``: the architectures per task (the first one is the task's default), filled
+  by ``register(task, name, default=False)`` on each model class (``models.registry``).
 """
 
 from __future__ import annotations
@@ -26,16 +27,13 @@ from __future__ import annotations
 import torch
 from torch import nn
 
+# (importing a model module registers its classes: models.registry)
 from spl_al.models.classifier import ResNet, SmallCNN
 from spl_al.models.normalise import to_input, to_range_input
 from spl_al.models.pointnet import PointNet2Seg
+from spl_al.models.registry import ARCHS, TASKS, register
 from spl_al.models.segmenter import UNet
 
-TASKS = ("classification", "segmentation")
-ARCHS: dict[str, dict[str, type[nn.Module]]] = {
-    "classification": {"smallcnn": SmallCNN, "resnet18": ResNet},
-    "segmentation": {"unet": UNet, "pointnet2": PointNet2Seg},
-}
 INPUT_KINDS = {"normalised": to_input, "range_m": to_range_input}
 
 
@@ -159,6 +157,7 @@ __all__ = [
     "model_class",
     "model_input",
     "needs_grid",
+    "register",
     "reset_parameters",
     "seed_own_draws",
     "to_input",

@@ -12,6 +12,8 @@ from __future__ import annotations
 import torch
 from torch import nn
 
+from spl_al.models.registry import register
+
 STEMS = ("imagenet", "cifar")
 
 
@@ -75,6 +77,7 @@ class _PooledClassifier(nn.Module):
         return self.fc(features), features
 
 
+@register("classification", "resnet18")
 class ResNet(_PooledClassifier):
     """ResNet-18 (He et al. 2016) trained from scratch, with configurable width and stem.
 
@@ -127,6 +130,7 @@ class ResNet(_PooledClassifier):
         return self.stages(self.stem(x))
 
 
+@register("classification", "smallcnn", default=True)
 class SmallCNN(_PooledClassifier):
     """A small, fast classifier for CPU runs: strided conv-BN-ReLU stages.
 

@@ -59,6 +59,8 @@ import numpy as np
 import torch
 from torch import nn
 
+from spl_al.models.registry import register
+
 # elements of a (batch, rows, points) distance block computed at once (float32: 64 MB)
 _CHUNK_ELEMENTS = 1 << 24
 _EPS_M = 1e-8
@@ -364,6 +366,7 @@ class FeaturePropagation(nn.Module):
 # ---------------------------------------------------------------- the network
 
 
+@register("segmentation", "pointnet2")
 class PointNet2Seg(nn.Module):
     """PointNet++ segmentation network over the points of range images (module docstring).
 

@@ -17,6 +17,7 @@ import torch.nn.functional as F
 from torch import nn
 
 from spl_al.models.classifier import init_conv_bn
+from spl_al.models.registry import register
 
 
 def _double_conv(c_in: int, c_out: int) -> nn.Sequential:
@@ -30,6 +31,7 @@ def _double_conv(c_in: int, c_out: int) -> nn.Sequential:
     )
 
 
+@register("segmentation", "unet", default=True)
 class UNet(nn.Module):
     """U-Net (Ronneberger et al. 2015) with configurable width and depth.
 
