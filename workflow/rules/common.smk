@@ -26,6 +26,7 @@ from spl_al.data.raw_captures import (
 from spl_al.data.external import folder_has_levels
 from spl_al.photon.io import ReadOptions
 from spl_al.data.label_files import lists_training_rows
+from spl_al.deploy.export import NOT_EXPORTED
 from spl_al.experiment import warm_client
 from spl_al.experiment.warm import Server
 from spl_al.experiment.overview import jobs_line, plan_text
@@ -245,7 +246,11 @@ def budget_metrics_files(dataset):
 
 
 def round_file(wildcards, r, name):
-    return f"{RESULTS}/{wildcards.dataset}/{wildcards.method}/seed{wildcards.seed}/round{r}/{name}"
+    """File ``name`` of round ``r`` of the job's run (``RUN``)."""
+    run = RUN.format(
+        dataset=wildcards.dataset, method=wildcards.method, seed=wildcards.seed
+    )
+    return f"{run}/round{r}/{name}"
 
 
 def labeled_in_round(wildcards, r):
@@ -271,11 +276,9 @@ def labeled_input(wildcards):
 def initial_variants(wildcards):
     """Variants per group a method trains on (0: observed images only)."""
     method = dataset_method(config, wildcards.dataset, wildcards.method, METHODS)
-    if not method.use_variants:
-        return 0
-    if method.n_variants is not None:
-        return int(method.n_variants)
-    return int(config["datasets"][wildcards.dataset]["variants"]["n"])
+    return method.train_variants(
+        int(config["datasets"][wildcards.dataset]["variants"]["n"])
+    )
 
 
 def initial_fit(wildcards):
@@ -315,8 +318,7 @@ def given_labels(wildcards):
 
 
 def previous_round(wildcards, name):
-    r = int(wildcards.round) - 1
-    return f"{RESULTS}/{wildcards.dataset}/{wildcards.method}/seed{wildcards.seed}/round{r}/{name}"
+    return round_file(wildcards, int(wildcards.round) - 1, name)
 
 
 def train_params(wildcards):
@@ -715,8 +717,8 @@ def card_facts(wildcards):
 
 
 def exportable(dataset):
-    """Whether a dataset's models export to ONNX (PointNet++'s do not)."""
-    return train_setup(config, dataset)["model"].get("arch") != "pointnet2"
+    """Whether a dataset's models export to ONNX (``NOT_EXPORTED``: PointNet++'s do not)."""
+    return train_setup(config, dataset)["model"].get("arch") not in NOT_EXPORTED
 
 
 def card_outputs(dataset):

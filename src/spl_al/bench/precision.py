@@ -147,7 +147,7 @@ def pick_agreement(results: Path, dataset: str) -> list[list[str]]:
     for name in budget["methods"]:
         method = dataset_method(config, dataset, name)
         strategy = get(method.strategy, **method.params)
-        m = data.n_variants if strategy.needs & GROUP_NEEDS else 0
+        m = method.variants_seen(data.n_variants) if strategy.needs & GROUP_NEEDS else 0
         depth, valid = data.groups(data.train_idx, n_variants=m)
         shares = []
         for seed in budget["seeds"]:

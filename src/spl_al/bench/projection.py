@@ -79,12 +79,8 @@ def method_variants(config: dict, dataset: str, method: str) -> int:
     """Variants per labeled group that ``method`` trains on (0: observed images only)."""
     from spl_al.experiment.plan import dataset_method
 
-    spec = dataset_method(config, dataset, method)
-    if not spec.use_variants:
-        return 0
-    if spec.n_variants is not None:
-        return int(spec.n_variants)
-    return int(config["datasets"][dataset]["variants"]["n"])
+    n_variants = int(config["datasets"][dataset]["variants"]["n"])
+    return dataset_method(config, dataset, method).train_variants(n_variants)
 
 
 def protocol_images(config: dict, dataset: str) -> dict:

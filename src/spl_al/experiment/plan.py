@@ -34,6 +34,16 @@ class MethodSpec:
     use_variants: bool = False
     n_variants: int | None = None
 
+    def variants_seen(self, n_variants: int) -> int:
+        """M, the variants per group the method sees: its own ``n_variants`` (the M
+        sweep), else the dataset's ``n_variants``."""
+        return n_variants if self.n_variants is None else int(self.n_variants)
+
+    def train_variants(self, n_variants: int) -> int:
+        """Variants per labeled group the method trains on: M with ``use_variants``,
+        else 0 (observed images only). ``n_variants``: the dataset's."""
+        return self.variants_seen(n_variants) if self.use_variants else 0
+
     def as_dict(self) -> dict:
         """The method as a JSON-ready dict."""
         return {

@@ -366,22 +366,12 @@ def _score_every_need(model, dataset, *, pool_idx, m, out_path, compute) -> None
     StrategyInputs(unlabeled_idx=unlabeled, labeled_idx=pool_idx, **parts).save(out_path)
 
 
-def _train_variants(method: MethodSpec, n_variants: int) -> int:
-    """Variants per labeled group a method trains on (0: observed images only)."""
-    return _method_variants(method, n_variants) if method.use_variants else 0
-
-
-def _method_variants(method: MethodSpec, n_variants: int) -> int:
-    """A method's M: its own ``n_variants`` (the M sweep), else the dataset's."""
-    return n_variants if method.n_variants is None else int(method.n_variants)
-
-
 def _score_variants(method: MethodSpec, needs, n_variants: int) -> int:
     """Variants per group a strategy's scoring runs on: its method's M when it needs
     group predictions (DUIS), else 0 (observed images only)."""
     from spl_al.strategies.inputs import GROUP_NEEDS
 
-    return _method_variants(method, n_variants) if needs & GROUP_NEEDS else 0
+    return method.variants_seen(n_variants) if needs & GROUP_NEEDS else 0
 
 
 def _check_fit(fit, fit_path, n_labeled, m, method_name) -> None:
@@ -402,7 +392,7 @@ def _shared_round0(initial: ModelFiles, method: MethodSpec, pool_idx, out: Model
     from spl_al.strategies.inputs import NEEDS
 
     fit = read_json(initial.record)
-    m = _train_variants(method, fit["dataset"]["n_variants"])
+    m = method.train_variants(fit["dataset"]["n_variants"])
     _check_fit(fit, initial.record, pool_idx.size, m, method.name)
     needs = get(method.strategy, **method.params).needs
     if _score_variants(method, needs, fit["dataset"]["n_variants"]) not in (
@@ -564,7 +554,7 @@ def _round_model(
     """The round's model: round 0's shared fit loaded (``initial``), else one trained on
     the labels of ``pool_idx`` (the dataset's, or a person's from ``labels_path``),
     from fresh weights or from ``previous_model``'s."""
-    m = _train_variants(method, dataset.n_variants)
+    m = method.train_variants(dataset.n_variants)
     if initial is not None:
         record = read_json(initial.record)
         _check_fit(record, initial.record, pool_idx.size, m, which.method)
