@@ -13,6 +13,7 @@ from spl_al.experiment.round_steps import (
     Compute,
     ModelFiles,
     RoundId,
+    RoundStart,
     save_model,
     train_initial,
     train_round,
@@ -95,7 +96,9 @@ def test_shared_round0_equals_training_and_scoring_in_place(tmp_path, method, m)
         "task": "classification", "n_samples": 30, "n_train": 24, "n_variants": 2,
         "synthetic_standin": False,
     }  # fmt: skip
-    shared = _train(data, labeled, setup, ROUND0, _files(tmp_path, "shared"), initial=initial)
+    shared = _train(
+        data, labeled, setup, ROUND0, _files(tmp_path, "shared"), start=RoundStart(initial=initial)
+    )
     timing = {"train_seconds", "score_seconds", "seconds"}
     assert {k: v for k, v in shared.items() if k not in timing} == {
         k: v for k, v in own.items() if k not in timing
@@ -121,7 +124,7 @@ def test_a_shared_fit_of_other_images_is_refused(tmp_path):
     setup = {**SETUP, "method": {"strategy": "duis", "use_variants": True}}
     duis = RoundId("toy", "duis", 1, 0)
     with pytest.raises(ValueError, match="trained on 6 images, but round 0 of duis trains on 18"):
-        _train(data, labeled, setup, duis, _files(tmp_path, "m"), initial=initial)
+        _train(data, labeled, setup, duis, _files(tmp_path, "m"), start=RoundStart(initial=initial))
 
 
 def test_a_last_round_writes_no_scores_and_its_query_is_refused(tmp_path):
@@ -156,7 +159,13 @@ def test_a_warm_start_fine_tunes_the_previous_rounds_weights_with_its_own_steps(
     # lr 0: a fine-tuning that cannot move the weights returns the previous round's
     warm = {**setup, "train": {**SETUP["train"], "warm_start": {"steps": 3, "lr": 0.0}}}
     record = _train(
-        data, labeled, warm, round1, _files(tmp_path, "r1"), score=False, previous_model=first.model
+        data,
+        labeled,
+        warm,
+        round1,
+        _files(tmp_path, "r1"),
+        score=False,
+        start=RoundStart(previous_model=first.model),
     )
     assert record["train_steps"] == 3  # the warm-start steps, not the fit's 2 epochs
     before, after = (torch.load(tmp_path / f"{r}.pt", weights_only=True) for r in ("r0", "r1"))

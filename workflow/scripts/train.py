@@ -1,4 +1,4 @@
-from spl_al.experiment.jobs import Compute, ModelFiles, RoundId
+from spl_al.experiment.jobs import Compute, ModelFiles, RoundId, RoundStart
 from spl_al.experiment.warm import run_job
 
 w = snakemake.wildcards
@@ -14,18 +14,20 @@ run_job(
         which=RoundId(w.dataset, w.method, int(w.seed), int(w.round)),
         out=ModelFiles(snakemake.output.model, snakemake.output.metrics, snakemake.output.scores),
         compute=Compute(snakemake.params.device, snakemake.threads, snakemake.params.precision),
-        labels_path=snakemake.input.labels or None,
-        initial=(
-            ModelFiles(
-                snakemake.input.initial_model,
-                snakemake.input.initial_fit,
-                snakemake.input.initial_scores,
-            )
-            if shared
-            else None
+        start=RoundStart(
+            initial=(
+                ModelFiles(
+                    snakemake.input.initial_model,
+                    snakemake.input.initial_fit,
+                    snakemake.input.initial_scores,
+                )
+                if shared
+                else None
+            ),
+            previous_model=getattr(snakemake.input, "previous_model", None),
+            labels_path=snakemake.input.labels or None,
         ),
         score=snakemake.params.score,
-        previous_model=getattr(snakemake.input, "previous_model", None),
     ),
     preload=() if shared else ("spl_al.data", "spl_al.scoring", "spl_al.training"),
     pass_log=True,

@@ -14,8 +14,9 @@ where labels enter:
   one line naming it; a wrong file stops with one line naming its line and value,
   and nothing is written.
 
-Training reads the labels of ``labels.npz`` (``train_round(labels_path=...)``), so a
-run never uses a training label nobody gave; strategies see no labels at all.
+Training reads the labels of ``labels.npz`` (``train_round``'s
+``RoundStart(labels_path=...)``), so a run never uses a training label nobody gave;
+strategies see no labels at all.
 """
 
 from __future__ import annotations

@@ -52,6 +52,18 @@ class RoundId:
 
 
 @dataclass(frozen=True)
+class RoundStart:
+    """What a round's model starts from besides its labeled set: round 0's shared fit
+    (``initial``: ``train_initial``'s files), the method's previous-round weights to
+    fine-tune (``previous_model``), and a person's labels (``labels_path``) instead of
+    the dataset's. All None: fresh weights on the dataset's labels."""
+
+    initial: ModelFiles | None = None
+    previous_model: str | Path | None = None
+    labels_path: str | Path | None = None
+
+
+@dataclass(frozen=True)
 class ModelFiles:
     """What a fit writes: the weights, a JSON record and the scores of the pool."""
 
@@ -62,3 +74,6 @@ class ModelFiles:
 
 LOCAL = Compute()
 """Torch's own device choice ("auto") and thread count."""
+
+FRESH = RoundStart()
+"""Fresh weights on the dataset's labels (``train_round``'s default start)."""

@@ -14,7 +14,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from spl_al.atomic import atomic_write, read_json, write_json
-from spl_al.experiment.jobs import LOCAL, Compute, ModelFiles, RoundId
+from spl_al.experiment.jobs import FRESH, LOCAL, Compute, ModelFiles, RoundId, RoundStart
 from spl_al.experiment.plan import MethodSpec
 from spl_al.pool import read_labeled
 
@@ -456,10 +456,8 @@ def train_round(
     out: ModelFiles,
     compute: Compute = LOCAL,
     log=None,
-    labels_path=None,
-    initial: ModelFiles | None = None,
+    start: RoundStart = FRESH,
     score: bool = True,
-    previous_model=None,
 ) -> dict:
     """Train on round r's labeled groups, evaluate on the test split, then score the
     unlabeled pool for the next query (``score_pool``) with the model still in memory.
@@ -471,17 +469,19 @@ def train_round(
     ``spl_al.report`` aggregates (``out.record``: with the round's optimiser steps,
     ``train_steps``, and the images they drew, ``images_seen``) and the scores.
 
-    The training labels are the dataset's (the simulated oracle), or with
-    ``labels_path`` the ones a person gave (``spl_al.data.label_files.save_labels``).
-    ``initial``: ``train_initial``'s files: round 0's model, trained once for every
-    method that trains like this one, is used instead of training again (the same
-    seed and images give the same weights). With its scores this step needs neither
-    torch nor the dataset: it copies the weights and the method's part of the scores.
+    ``start`` (``RoundStart``): the training labels are the dataset's (the simulated
+    oracle), or with ``start.labels_path`` the ones a person gave
+    (``spl_al.data.label_files.save_labels``). ``start.initial``: ``train_initial``'s
+    files: round 0's model, trained once for every method that trains like this one, is
+    used instead of training again (the same seed and images give the same weights).
+    With its scores this step needs neither torch nor the dataset: it copies the weights
+    and the method's part of the scores. ``start.previous_model``: the weights of this
+    method's round r - 1, when the dataset's ``train.warm_start`` is set: the round
+    fine-tunes them (``fit_and_evaluate``).
     ``score``: False in a run's last round, whose scores no query reads: ``out.scores``
     then holds the index sets only (a query on it is refused, naming what is missing).
-    ``previous_model``: the weights of this method's round r - 1, when the dataset's
-    ``train.warm_start`` is set: the round fine-tunes them (``fit_and_evaluate``).
     """
+    initial = start.initial
     started = time.perf_counter()
     method = MethodSpec(name=which.method, **{"params": {}, **setup["method"]})
     pool_idx = read_labeled(labeled_path)
@@ -510,9 +510,7 @@ def train_round(
         which=which,
         compute=compute,
         log=log,
-        labels_path=labels_path,
-        initial=initial,
-        previous_model=previous_model,
+        start=start,
     )
     save_model(fit.model, out.model)
     if score:
@@ -548,23 +546,22 @@ def _fit_facts(fit: Fit, *, score_seconds: float, started: float) -> dict:
     }
 
 
-def _round_model(
-    dataset, pool_idx, *, setup, method, which, compute, log, labels_path, initial, previous_model
-):
-    """The round's model: round 0's shared fit loaded (``initial``), else one trained on
-    the labels of ``pool_idx`` (the dataset's, or a person's from ``labels_path``),
-    from fresh weights or from ``previous_model``'s."""
+def _round_model(dataset, pool_idx, *, setup, method, which, compute, log, start: RoundStart):
+    """The round's model: round 0's shared fit loaded (``start.initial``), else one
+    trained on the labels of ``pool_idx`` (the dataset's, or a person's from
+    ``start.labels_path``), from fresh weights or from ``start.previous_model``'s."""
     m = method.train_variants(dataset.n_variants)
+    initial = start.initial
     if initial is not None:
         record = read_json(initial.record)
         _check_fit(record, initial.record, pool_idx.size, m, which.method)
         return _fit_of_record(load_model(dataset, setup["train"]["model"], initial.model), record)
-    if labels_path is None:
+    if start.labels_path is None:
         given = dataset.labels[dataset.train_idx[pool_idx]]
     else:
         from spl_al.data.label_files import labels_for
 
-        given = labels_for(labels_path, pool_idx).astype(dataset.labels.dtype)
+        given = labels_for(start.labels_path, pool_idx).astype(dataset.labels.dtype)
     return fit_and_evaluate(
         dataset,
         pool_idx,
@@ -575,7 +572,7 @@ def _round_model(
         round_=which.round,
         compute=compute,
         log=log,
-        warm_from=previous_model,
+        warm_from=start.previous_model,
     )
 
 
