@@ -344,6 +344,18 @@ CHANGES = {
         ["street_pc/random/seed3/round1/metrics.json", "street_pc/tables/budget.csv"],
         ["street_pc/*/seed1/*", "street_pc/*/seed2/*", "*/data/*", "real_cls/*", "street_seg/*"],
     ),
+    "a dataset's method parameters": (
+        "datasets: {street_pc: {method_params: {duis: {n_cand: 4}}}}",
+        ["street_pc/duis/seed1/round1/labeled.json", "street_pc/tables/budget.csv"],
+        [
+            "*/data/*",
+            "*/initial/*",
+            "*/duis/*/round0/*",
+            "*/random/*",
+            "real_cls/*",
+            "street_seg/*",
+        ],
+    ),
     "a dataset's batch": (
         "datasets: {street_pc: {al: {batch: 2}}}",
         ["street_pc/random/seed1/round1/labeled.json"],

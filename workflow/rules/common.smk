@@ -205,8 +205,18 @@ def n_shards(dataset):
 
 
 # The keys of a dataset entry its observed images do not depend on: the loop, the
-# training, the variants (their own rules), the experiments and the job sizes.
-NOT_DATA = ("al", "train", "variants", "experiments", "robustness", "resources")
+# training and its precision, the methods' parameters, the variants (their own
+# rules), the experiments and the job sizes.
+NOT_DATA = (
+    "al",
+    "train",
+    "precision",
+    "method_params",
+    "variants",
+    "experiments",
+    "robustness",
+    "resources",
+)
 
 
 def dataset_params(dataset):
