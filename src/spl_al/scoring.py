@@ -26,11 +26,8 @@ import numpy as np
 import torch
 from torch import nn
 
-from spl_al.strategies.badge import gradient_embedding_factors, pixel_gradient_embedding
-from spl_al.strategies.duis import margin_and_inconsistency
-from spl_al.strategies.entropy import entropy_score
 from spl_al.strategies.inputs import GROUP_NEEDS, StrategyInputs, as_index_array, check_needs
-from spl_al.strategies.margin import margin_score
+from spl_al.strategies.scores import scores_from_outputs
 from spl_al.training.predict import iter_forward, pool_pixels
 
 DEFAULT_BATCH_IMAGES = {"classification": 256, "segmentation": 16}
@@ -72,30 +69,6 @@ def _group_outputs(
         pooled.view(b, n_images, dim).cpu().numpy(),
         image_valid.cpu().numpy(),
     )
-
-
-def _batch_scores(needs, task, probs, pix_feats, feats, image_valid):
-    """(name, array) of every score and feature ``needs`` asks of one batch of groups,
-    from ``_group_outputs``'s probabilities, pixel features, features and validity."""
-    units_valid = None if image_valid is None else image_valid[:, 0]
-    if "entropy" in needs:
-        yield "entropy", entropy_score(probs[:, 0], units_valid)
-    if "margin" in needs:
-        yield "margin", margin_score(probs[:, 0], units_valid)
-    if "margin_inconsistency" in needs:
-        gamma, d = margin_and_inconsistency(probs, units_valid, image_valid)
-        yield "gamma", gamma
-        yield "inconsistency", d
-    if "features" in needs:
-        yield "features", feats[:, 0]
-    if "group_features" in needs:
-        yield "group_features", feats.mean(axis=1)
-    if "grad_embedding" in needs and task == "classification":
-        q, h = gradient_embedding_factors(probs[:, 0, 0], feats[:, 0])
-        yield "grad_q", q
-        yield "grad_h", h
-    elif "grad_embedding" in needs:
-        yield "grad_embedding", pixel_gradient_embedding(probs[:, 0], pix_feats[:, 0], units_valid)
 
 
 def compute_inputs(
@@ -160,7 +133,9 @@ def compute_inputs(
             pixel_features=badge_pixels,
             precision=precision,
         )
-        for name, value in _batch_scores(needs, task, probs, pix_feats, feats, image_valid):
+        for name, value in scores_from_outputs(
+            needs, task, probs, feats, pix_feats=pix_feats, image_valid=image_valid
+        ):
             add(name, value)
     if "labeled_features" in needs:
         dim = getattr(model, "feature_dim", 0)
