@@ -23,6 +23,7 @@ from spl_al.report.stats import (
     seeds_for_level,
     seeds_needed,
     sign_flip_p,
+    sign_flip_ps,
     t_interval,
     t_power,
 )
@@ -558,3 +559,10 @@ def test_a_run_trained_in_bf16_decides_no_claim_and_says_what_its_seeds_read():
     )
     assert bf16["reason"].iloc[2] == "too few seeds"
     assert bf16["seeds_read"].tolist() == frame["verdict"].tolist()
+
+
+def test_sign_flip_ps_equal_one_at_a_time():
+    rng = np.random.default_rng(5)
+    ds = [rng.normal(0.2, 1.0, 60), rng.normal(0.0, 1.0, 60), rng.normal(0.5, 1.0, 8)]
+    ds.append(np.zeros(60))
+    assert sign_flip_ps(ds) == [sign_flip_p(d) for d in ds]
