@@ -39,12 +39,14 @@ except ValueError as err:
 
 
 include: "workflow/rules/common.smk"
+include: "workflow/rules/embedding_common.smk"
 include: "workflow/rules/photon.smk"
 include: "workflow/rules/captures.smk"
 include: "workflow/rules/data.smk"
 include: "workflow/rules/al.smk"
 include: "workflow/rules/human.smk"
 include: "workflow/rules/report.smk"
+include: "workflow/rules/embedding.smk"
 include: "workflow/rules/robustness.smk"
 include: "workflow/rules/deploy.smk"
 include: "workflow/rules/warm.smk"
@@ -56,3 +58,4 @@ rule all:
         f"{RESULTS}/config.yaml",
         photon_pictures(),
         [dataset_outputs(d) for d in DATASETS],
+        [embedding_outputs(d) for d in DATASETS],

@@ -177,7 +177,8 @@ def test_pages_generator_writes_every_dataset_and_keeps_the_readme_outside(tmp_p
     assert text.endswith("<!-- results:end -->\n" + tail)
     assert "old block" not in text
     assert text.index("**real_cls**") < text.index("**street_seg**")
-    assert "| DUIS | 31.0 ± 1.5 | **55.0 ± 1.5** | 40.0 [35.0, 45.0] |" in text
+    # one AUBC table of both datasets (the per-round tables are on the page)
+    assert "| DUIS | 40.0 [35.0, 45.0] | 40.0 [35.0, 45.0] |" in text
     assert "1 supported, 1 inconclusive (of 2)" in text
     assert "synthetic stand-in" in text
 
@@ -230,6 +231,25 @@ def test_pages_generator_gives_a_second_run_its_own_page_and_figures(tmp_path):
     readme.write_text(default_block)
     assert pages.main(argv) == 0
     assert readme.read_text() == default_block
+
+
+def test_pages_generator_reads_the_embedding_framework_of_a_run(tmp_path):
+    results = tmp_path / "results"
+    _fake_dataset(results / "real_cls", "embedding", "accuracy", True)  # real_cls/embedding/
+    docs = tmp_path / "docs"
+    docs.mkdir()
+    (docs / "embedding.md").write_text(
+        "# Embedding\n\n<!-- results:start -->\n<!-- results:end -->\n"
+    )
+    readme = tmp_path / "README.md"
+    readme.write_text("<!-- embedding:start -->\nold\n<!-- embedding:end -->\n")
+    argv = [str(results), "--docs", str(docs), "--readme", str(readme), "--page", "embedding"]
+    assert pages.main([*argv, "--framework", "embedding"]) == 0
+    text = readme.read_text()
+    assert "**real_cls**" in text and "| DUIS | 40.0 [35.0, 45.0] |" in text
+    page = (docs / "embedding.md").read_text()
+    assert "`results/real_cls/embedding/tables/comparisons.md`" in page
+    assert (docs / "figures" / "embedding_real_cls_budget.png").exists()
 
 
 def test_pages_generator_writes_nothing_when_the_readme_lacks_its_block(tmp_path, capsys):

@@ -18,6 +18,7 @@ import subprocess
 import time
 from pathlib import Path
 
+import numpy as np
 import pandas as pd
 import pytest
 from snakemake_cli import CI_CONFIG, SNAKEMAKE
@@ -31,11 +32,12 @@ pytestmark = [
     pytest.mark.skipif(shutil.which("snakemake") is None, reason="snakemake not installed"),
 ]
 
-# config/ci.yaml's real_cls budget: the default's methods less BADGE
-CLS_METHODS = ["random", "margin", "duis"]
+# config/ci.yaml's real_cls budget: the default's methods less BADGE, and TypiClust
+# selecting on the self-supervised embedding (features: embedding)
+CLS_METHODS = ["random", "margin", "typiclust_ssl", "duis"]
 # the matched family of real_cls: the baselines' twins trained on the variants, and
 # Syn+Diversity for the decomposition of DUIS - Random
-CLS_MATCHED = ["syn_random", "syn_margin"]
+CLS_MATCHED = ["syn_random", "syn_margin", "syn_typiclust_ssl"]
 CLS_BUDGET = [*CLS_METHODS, *CLS_MATCHED, "syn_diversity"]
 
 
@@ -168,8 +170,8 @@ def test_paired_statistics_claims_and_robustness_map(ci_results):
     cmp = pd.read_csv(cls / "comparisons.csv")
     assert set(cmp["experiment"]) == {"budget", "levels", "ablation", "sensitivity"}
     budget = cmp[cmp["experiment"] == "budget"]
-    # 6 methods: 15 pairs at each of 2 rounds and for the AUBC over the query round
-    assert len(budget) == 15 * 3 and (budget["point"] == "AUBC").sum() == 15
+    # 8 methods: 28 pairs at each of 2 rounds and for the AUBC over the query round
+    assert len(budget) == 28 * 3 and (budget["point"] == "AUBC").sum() == 28
     assert set(budget.loc[budget["point"] == "AUBC", "span"]) == {"round 1 (19.3%)"}
     assert cmp["n"].between(1, 2).all() and cmp["p_value"].between(0, 1).all()
     paired = cmp[cmp["n"] == 2]  # sensitivity runs one seed: no interval there
@@ -185,7 +187,10 @@ def test_paired_statistics_claims_and_robustness_map(ci_results):
         "variant_training",
         "inconsistency_over_diversity",
         "m_gt_1_beats_m_1",
+        "duis_over_low_budget_matched",
     } <= set(claims["claim_id"])
+    low = claims.loc[claims["claim_id"] == "duis_over_low_budget_matched", "claim"].iloc[0]
+    assert "Syn+TypiClust (SSL) (selecting on the frozen self-supervised embedding)" in low
     assert set(claims["source"]) == {"paper", "extension"}
     parts = pd.read_csv(cls / "decomposition.csv")
     for _, block in parts.groupby("point"):
@@ -543,3 +548,29 @@ def test_the_precision_benchmark_compares_two_runs_claim_by_claim(ci_results, tm
     picks = {row[0]: row for row in precision.pick_agreement(ci_results, "real_cls")}
     assert set(picks) == {"random", "margin", "syn_diversity", "duis"}
     assert picks["random"][1:] == ["100%", "100%", "2 of 2"]
+
+
+def test_embedding_framework_runs_on_the_same_round0_sets(ci_results):
+    """config/ci.yaml's real_cls embedding framework: every table kind under
+    real_cls/embedding/, each naming its framework, its rounds starting from the seeds'
+    own round-0 sets, and a supervised method with features: embedding selecting on
+    the same embeddings."""
+    root = ci_results / "real_cls" / "embedding"
+    card = json.loads((root / "encoder.card.json").read_text())
+    assert card["dataset"] == "real_cls" and card["precision"] == "fp32"
+    for name in ("budget", "levels", "ablation", "sensitivity"):
+        caption = (root / "tables" / f"{name}.md").read_text().splitlines()[0]
+        assert "embedding framework" in caption
+    assert "in the embedding framework" in (root / "tables" / "claims.md").read_text()
+    claims = pd.read_csv(root / "tables" / "claims.csv")
+    assert set(claims["framework"]) == {"embedding"}
+    assert json.loads((root / "tables" / "summary.json").read_text())["framework"] == "embedding"
+    runs = json.loads((root / "runs" / "duis.json").read_text())
+    assert sorted({r["seed"] for r in runs}) == [1, 2, 3]
+    for record in (r for r in runs if r["round"] == 0 and r["seed"] in (1, 2)):
+        initial = ci_results / "real_cls" / "initial" / f"seed{record['seed']}.json"
+        assert sorted(record["pool_indices"]) == json.loads(initial.read_text())["pool_indices"]
+    with np.load(root / "embeddings.npz") as f:
+        train = f["train"]
+    scores = np.load(ci_results / "real_cls" / "typiclust_ssl" / "seed1" / "round0" / "scores.npz")
+    np.testing.assert_array_equal(scores["features"], train[scores["unlabeled_idx"], 0])

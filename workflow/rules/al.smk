@@ -69,6 +69,7 @@ rule train:
     input:
         unpack(initial_fit),
         unpack(warm_start_model),
+        unpack(selection_embeddings),
         data=f"{RESULTS}/{{dataset}}/data/dataset.npz",
         labeled=labeled_input,
         labels=given_labels,

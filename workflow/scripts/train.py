@@ -28,6 +28,7 @@ run_job(
             labels_path=snakemake.input.labels or None,
         ),
         score=snakemake.params.score,
+        embeddings=getattr(snakemake.input, "embeddings", None),
     ),
     preload=() if shared else ("spl_al.data", "spl_al.scoring", "spl_al.training"),
     pass_log=True,

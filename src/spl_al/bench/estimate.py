@@ -43,6 +43,9 @@ JOB_START_S = {True: 0.21, False: 2.0}
 SCHEDULER_S_PER_JOB = 0.3
 # Report jobs (tables, curves, stats, summary) per dataset, and the fixed ones of a run.
 REPORT_JOBS, FIXED_JOBS = 9, 2
+# Paired statistics of an embedding framework's report, per (method, seed) run: 30 s
+# for real_cls's 2,100 runs and 25 s for synth_cls's 1,800 (2-core Zen 5, 2026-11-27).
+REPORT_S_PER_RUN = 0.014
 MINI_IMAGES = {"classification": 2, "segmentation": 6}  # per class / in all
 STEPS = 30  # timed training steps per model, for the command line and the plan alike
 
@@ -227,6 +230,95 @@ def estimate_dataset(config: dict, dataset: str, *, tmp: Path, steps: int, jobs:
     }
 
 
+def probe_round_seconds(*, n_pool: int, n_test: int, m: int, dim: int, n_labeled: int) -> float:
+    """Seconds of one embedding-framework round (fit, measure, score, query), the mean
+    of timed rounds of a few strategies on random embeddings of the pool's size."""
+    import numpy as np
+    from threadpoolctl import threadpool_limits
+
+    from spl_al.linear_probe import LinearProbe, probe_inputs
+    from spl_al.strategies import get
+
+    m = int(m)
+    rng = np.random.default_rng(0)
+    emb = rng.normal(size=(n_pool, 1 + m, dim)).astype(np.float32)
+    labels = rng.integers(0, 11, n_pool)
+    labeled = np.arange(n_labeled)
+    unlabeled = np.arange(labeled.size, n_pool)
+    # the first: imports and warm-up; then observed-only and variant fits, as a budget mixes
+    cases = [("random", 1), ("margin", 1), ("margin", 1 + m), ("coreset", 1), ("duis", 1 + m)]
+    with threadpool_limits(limits=1):
+        for i, (strategy, g) in enumerate(cases):
+            if i == 1:
+                started = time.perf_counter()
+            s = get(
+                strategy,
+                **({"n_cand": max(2, min(160, unlabeled.size // 2))} if strategy == "duis" else {}),
+            )
+            x_fit = emb[labeled, :g].reshape(-1, emb.shape[-1])
+            probe = LinearProbe(11).fit(x_fit, np.repeat(labels[labeled], g))
+            probe.predict_proba(emb[:n_test, 0])
+            inputs = probe_inputs(
+                probe, emb, s.needs, unlabeled_idx=unlabeled, labeled_idx=labeled, n_images=g
+            )
+            s.select(inputs, 20, np.random.default_rng(0))
+    return (time.perf_counter() - started) / (len(cases) - 1)
+
+
+def embedding_seconds(config: dict, dataset: str, *, steps: int = 5) -> dict:
+    """Core seconds of a dataset's embedding framework (none without one): the encoder
+    (``steps`` timed steps of its recipe, scaled to its steps, plus embedding every
+    image) and the probe runs (a few timed rounds of DUIS and Random on random
+    embeddings of the pool's size, times the rounds planned), and its job count."""
+    import torch
+
+    from spl_al.experiment.plan import dataset_runs, labeled_at
+    from spl_al.training.contrastive import Encoder, EncoderConfig, nt_xent
+    from spl_al.training.sgd import SGD
+
+    entry = config["datasets"][dataset]
+    embedding = entry.get("embedding")
+    if not embedding:
+        return {"encoder_s": 0.0, "probe_s": 0.0, "jobs": 0}
+    cfg = EncoderConfig.from_dict(embedding.get("encoder"))
+    n_pool, n_test, _ = split_sizes(entry)
+    m = int(entry["variants"]["n"])
+    shape = tuple((entry.get("synthesis") or {}).get("image_shape") or (64, 64))
+    torch.manual_seed(0)
+    encoder = Encoder(cfg)
+    batch = min(cfg.batch_size, n_pool)
+    x = torch.randn(2 * batch, 2, *shape)
+    opt = SGD(encoder.parameters(), lr=0.01)
+    started = time.perf_counter()
+    for _ in range(steps):
+        loss = nt_xent(encoder.project(encoder(x)), cfg.temperature)
+        opt.zero_grad()
+        loss.backward()
+        opt.step()
+    step_s = (time.perf_counter() - started) / steps
+    with torch.no_grad():
+        started = time.perf_counter()
+        encoder(x)
+        image_s = (time.perf_counter() - started) / len(x)
+    encoder_s = cfg.steps * step_s + (n_pool * (1 + m) + n_test) * image_s
+    runs = dataset_runs(config, dataset, "embedding")
+    rounds = sum(runs.values())
+    round_s = probe_round_seconds(
+        n_pool=n_pool,
+        n_test=n_test,
+        m=m,
+        dim=8 * cfg.width,
+        n_labeled=labeled_at(entry["al"], 1),
+    )
+    methods = {method for method, _seed in runs}
+    report_s = REPORT_S_PER_RUN * len(runs)  # the paired statistics over every seed
+    return {
+        "encoder_s": encoder_s,
+        "probe_s": rounds * round_s + report_s,
+        "jobs": 1 + len(methods) + REPORT_JOBS,
+    }
+
+
 def estimate_config(config: dict, jobs: int = 2, steps: int = STEPS, log=print) -> dict:
     """Predicted seconds of a merged config's run, ``jobs`` at a time: ``{"wall_s",
     "jobs", "rows"}`` with one table row per dataset (``HEADER``). Datasets whose size
@@ -244,7 +336,10 @@ def estimate_config(config: dict, jobs: int = 2, steps: int = STEPS, log=print) 
                     "is known only from its files).")  # fmt: skip
                 continue
             part = estimate_dataset(config, dataset, tmp=Path(tmp), steps=steps, jobs=jobs)
-            core = part["train_s"] + part["forward_s"] + part["data_s"]
+            framework = embedding_seconds(config, dataset)
+            part["jobs"] += framework["jobs"]
+            embed_s = framework["encoder_s"] + framework["probe_s"]
+            core = part["train_s"] + part["forward_s"] + part["data_s"] + embed_s
             core += part["jobs"] * (JOB_START_S[warm] + SCHEDULER_S_PER_JOB)
             total_core += core
             total_jobs += part["jobs"]
@@ -252,13 +347,14 @@ def estimate_config(config: dict, jobs: int = 2, steps: int = STEPS, log=print) 
                 [dataset, part["precision"], f"{part['train_rate']:.0f}",
                  str(part["trainings"]), str(part["jobs"]), f"{part['train_s'] / 60:.1f}",
                  f"{part['forward_s'] / 60:.1f}", f"{part['data_s'] / 60:.1f}",
-                 f"{core / jobs / 60:.1f}"]
+                 f"{embed_s / 60:.1f}", f"{core / jobs / 60:.1f}"]
             )  # fmt: skip
     return {"wall_s": total_core / jobs, "jobs": total_jobs, "rows": rows}
 
 
 HEADER = ["dataset", "precision", "train images/s", "trainings", "jobs", "train core-min",
-          "eval+score core-min", "data core-min", "wall min"]  # fmt: skip
+          "eval+score core-min", "data core-min", "embedding core-min",
+          "wall min"]  # fmt: skip
 
 
 ESTIMATE_ENV = "SPL_AL_ESTIMATE"

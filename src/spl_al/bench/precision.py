@@ -127,7 +127,8 @@ def pick_agreement(results: Path, dataset: str) -> list[list[str]]:
     own weights, the pool scored once under bf16 autocast and once in fp32, the same
     strategy and random stream picking from each. Per method: the share of picked groups
     the two have in common (mean and lowest over the queries) and the queries that pick
-    the very same groups."""
+    the very same groups. Methods that select on the self-supervised embedding
+    (``features: embedding``) are left out: their selection reads no model output."""
     import numpy as np
     import yaml
 
@@ -146,6 +147,8 @@ def pick_agreement(results: Path, dataset: str) -> list[list[str]]:
     rows = []
     for name in budget["methods"]:
         method = dataset_method(config, dataset, name)
+        if method.features == "embedding":
+            continue  # selects on the fp32 self-supervised embedding: no model to rescore
         strategy = get(method.strategy, **method.params)
         m = method.variants_seen(data.n_variants) if strategy.needs & GROUP_NEEDS else 0
         depth, valid = data.groups(data.train_idx, n_variants=m)

@@ -343,40 +343,28 @@ def aubc_overview(results: Path, kept: dict[str, Column] | None = None) -> list[
 
 
 def readme_block(results: Path, page: str = BLOCK, earlier: str | None = None) -> str:
-    """The README's compact results: for the default run one table per dataset and its
-    claims' verdicts; for a second run (``page``) one AUBC table of every dataset
-    (``aubc_overview``), then each dataset's verdicts. ``earlier``: the block as it was,
-    whose datasets the folder lacks are kept (``--keep-absent``)."""
+    """The README's compact results of a run (``page``): one AUBC table of every dataset
+    (``aubc_overview``), then each dataset's verdicts; the per-round tables are on
+    docs/{page}.md. ``earlier``: the block as it was, whose datasets the folder lacks
+    are kept (``--keep-absent``)."""
     present = datasets(results)
     chunks = {d: c for d, c in readme_chunks(earlier or "").items() if d not in present}
     lines = [_generated_by(page, kept=list(chunks), on_page=False), ""]
     parts: dict[str, list[str]] = {name: [chunk, ""] for name, chunk in chunks.items()}
-    if page == BLOCK:
-        for dataset in present:
-            parts[dataset] = [f"**{dataset}**: {_heading(results, dataset)}.", ""]
-            parts[dataset] += compact_table(results, dataset)
-            parts[dataset] += ["", verdict_line(claims(results, dataset)), ""]
-    else:
-        kept = {d: c for d, c in overview_columns(earlier or "").items() if d not in present}
-        lines += ["**Area under the budget curve over the query rounds** (%) [95% CI]:", ""]
-        lines += [*aubc_overview(results, kept), ""]
-        for dataset in present:
-            budget = _rows(results / dataset / "tables" / "budget.csv")
-            about = _seeds(_summary(results, dataset), budget)
-            if _is_standin(budget):
-                about += "; synthetic stand-in for real data"
-            text = verdict_line(claims(results, dataset))
-            parts[dataset] = [f"**{dataset}** ({about}). {text}", ""]
+    kept = {d: c for d, c in overview_columns(earlier or "").items() if d not in present}
+    lines += ["**Area under the budget curve over the query rounds** (%) [95% CI]:", ""]
+    lines += [*aubc_overview(results, kept), ""]
+    for dataset in present:
+        budget = _rows(results / dataset / "tables" / "budget.csv")
+        about = _seeds(_summary(results, dataset), budget)
+        if _is_standin(budget):
+            about += "; synthetic stand-in for real data"
+        text = verdict_line(claims(results, dataset))
+        parts[dataset] = [f"**{dataset}** ({about}). {text}", ""]
     for dataset in _in_order(parts):
         lines += parts[dataset]
     rule = "[docs/results.md](docs/results.md#statistics-how-sure)"
-    if page == BLOCK:
-        legend = (
-            "Bold: the leader of a column, resolved from the runner-up; †: the highest "
-            f"mean, a tie at this number of seeds (the rule: {rule})."
-        )
-    else:
-        legend = f"The rule behind each verdict: {rule}."
+    legend = f"The rule behind each verdict: {rule}."
     lines.append(f"{legend} Every table, figure and claim: [docs/{page}.md](docs/{page}.md).")
     return "\n".join(lines)
 
@@ -395,6 +383,16 @@ def _shown(results: Path) -> str:
         return results.name
 
 
+def _dataset_shown(results: Path, dataset: str) -> str:
+    """A dataset's folder as the page names it: ``RESULTS/{dataset}``, or through a
+    ``framework_view``, ``RESULTS/{dataset}/embedding``."""
+    where = results / dataset
+    if where.is_symlink():
+        target = where.resolve()
+        return f"{target.parents[1].name}/{target.parent.name}/{target.name}"
+    return f"{_shown(results)}/{dataset}"
+
+
 def _resolved_comparisons(results: Path, dataset: str) -> list[str]:
     path = results / dataset / "tables" / "comparisons.csv"
     if not path.exists():
@@ -403,7 +401,7 @@ def _resolved_comparisons(results: Path, dataset: str) -> list[str]:
     resolved = [r for r in rows if str(r.get("resolved", "")).lower() == "true"]
     lines = [
         f"{len(resolved)} of {len(rows)} paired comparisons are resolved "
-        f"(all of them: `{_shown(results)}/{dataset}/tables/comparisons.md`)."
+        f"(all of them: `{_dataset_shown(results, dataset)}/tables/comparisons.md`)."
     ]
     if resolved:
         lines += [
@@ -577,7 +575,39 @@ DEFAULT_RESULTS_PAGE = """# Results
 """
 
 
+def framework_view(results: Path, folder: Path) -> Path:
+    """``folder`` made a results folder of the embedding framework's outputs: one link
+    per dataset, ``folder/{dataset}`` -> ``results/{dataset}/embedding``."""
+    folder.mkdir(parents=True, exist_ok=True)
+    for tables in sorted(Path(results).glob("*/embedding/tables/budget.csv")):
+        dataset_dir = tables.parents[2]
+        (folder / dataset_dir.name).symlink_to((dataset_dir / "embedding").resolve())
+    return folder
+
+
 def update(
+    results: Path,
+    docs: Path = Path("docs"),
+    readme: Path = Path("README.md"),
+    *,
+    page: str = BLOCK,
+    keep_absent: bool = False,
+    framework: str = "supervised",
+) -> list[Path]:
+    """``update_pages`` of the run's ``framework``: "embedding" reads each dataset's
+    ``embedding/`` outputs (``framework_view``)."""
+    if framework == "supervised":
+        return update_pages(results, docs, readme, page=page, keep_absent=keep_absent)
+    if framework != "embedding":
+        raise ValueError(f"--framework must be supervised or embedding, got {framework!r}.")
+    import tempfile
+
+    with tempfile.TemporaryDirectory() as tmp:
+        view = framework_view(results, Path(tmp) / Path(results).name)
+        return update_pages(view, docs, readme, page=page, keep_absent=keep_absent)
+
+
+def update_pages(
     results: Path,
     docs: Path = Path("docs"),
     readme: Path = Path("README.md"),
@@ -637,10 +667,21 @@ def main(argv: list[str] | None = None) -> int:
         help="keep what the blocks say of datasets RESULTS does not hold (a run of one "
         "dataset into its own folder updates its part of a shared page)",
     )
+    parser.add_argument(
+        "--framework",
+        default="supervised",
+        choices=("supervised", "embedding"),
+        help="embedding: the embedding framework's outputs (RESULTS/{dataset}/embedding/)",
+    )
     args = parser.parse_args(argv)
     try:
         written = update(
-            args.results, args.docs, args.readme, page=args.page, keep_absent=args.keep_absent
+            args.results,
+            args.docs,
+            args.readme,
+            page=args.page,
+            keep_absent=args.keep_absent,
+            framework=args.framework,
         )
     except ValueError as exc:
         print(f"error: {exc}", file=sys.stderr)

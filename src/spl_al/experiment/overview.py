@@ -15,6 +15,9 @@ DEFAULT_SHAPES = {"classification": (64, 64), "segmentation": (64, 256)}
 
 
 def _numbers(values) -> str:
+    values = list(values)
+    if len(values) > 6 and values == list(range(values[0], values[0] + len(values))):
+        return f"{values[0]}-{values[-1]} ({len(values)})"
     return ", ".join(str(v) for v in values)
 
 
@@ -59,7 +62,22 @@ def dataset_lines(config: dict, dataset: str) -> list[str]:
     lines = [
         f"{dataset}: {entry.get('task')}, source {_source(entry)}, {image_shape(entry)}, {oracle}"
     ]
-    exps = experiments_of(config, dataset)
+    lines += _experiment_lines(config, dataset, experiments_of(config, dataset), human)
+    embedding = entry.get("embedding")
+    if embedding:
+        steps = (embedding.get("encoder") or {}).get("steps", 300)
+        lines.append(
+            f"  embedding framework (a linear classifier on a frozen self-supervised "
+            f"encoder, {steps} steps, learned once; results in .../{dataset}/embedding/):"
+        )
+        exps = experiments_of(config, dataset, framework="embedding")
+        lines += ["  " + line for line in _experiment_lines(config, dataset, exps, human)]
+    return lines
+
+
+def _experiment_lines(config: dict, dataset: str, exps: dict, human: bool) -> list[str]:
+    entry = config["datasets"][dataset]
+    lines = []
     if exps.get("budget"):
         lines.append("  " + _budget(entry, exps["budget"], human))
     if exps.get("levels"):

@@ -21,18 +21,39 @@ FULL_METHOD = "duis"
 
 MATCHED_PREFIX = "syn_"
 
+FEATURE_NEEDS = frozenset({"features", "group_features", "labeled_features"})
+"""The strategy needs ``features: embedding`` may serve from the self-supervised embedding."""
+
+FRAMEWORKS = ("supervised", "embedding")
+"""How a round learns: ``supervised`` trains the configured network on the labeled
+groups (the paper's protocol; a dataset's ``experiments``); ``embedding`` fits a
+linear classifier on a frozen self-supervised encoder's embeddings (a dataset's
+``embedding.experiments``; ``spl_al.linear_probe``)."""
+
+
+def framework_experiments(entry: dict, framework: str = "supervised") -> dict:
+    """A dataset entry's experiments (as configured) in ``framework``."""
+    if framework not in FRAMEWORKS:
+        raise ValueError(f"framework must be one of {list(FRAMEWORKS)}, got {framework!r}.")
+    if framework == "supervised":
+        return dict(entry.get("experiments") or {})
+    return dict((entry.get("embedding") or {}).get("experiments") or {})
+
 
 @dataclass(frozen=True)
 class MethodSpec:
     """One method: ``strategy`` with ``params``; ``use_variants`` trains on all M + 1
     images of a labeled group; ``n_variants`` (None = the dataset's M) is how many
-    variants the method sees, for training and for scoring."""
+    variants the method sees, for training and for scoring; ``features``: what a
+    feature-only strategy selects on in the supervised framework, the trained model's
+    features ("model") or the dataset's self-supervised embedding ("embedding")."""
 
     name: str
     strategy: str
     params: dict = field(default_factory=dict, hash=False)
     use_variants: bool = False
     n_variants: int | None = None
+    features: str = "model"
 
     def variants_seen(self, n_variants: int) -> int:
         """M, the variants per group the method sees: its own ``n_variants`` (the M
@@ -45,13 +66,17 @@ class MethodSpec:
         return self.variants_seen(n_variants) if self.use_variants else 0
 
     def as_dict(self) -> dict:
-        """The method as a JSON-ready dict."""
-        return {
+        """The method as a JSON-ready dict (``features`` only when not the default
+        "model": a job's recorded settings stay those of a method without it)."""
+        out = {
             "strategy": self.strategy,
             "params": dict(self.params),
             "use_variants": self.use_variants,
             "n_variants": self.n_variants,
         }
+        if self.features != "model":
+            out["features"] = self.features
+        return out
 
 
 def _format_value(value) -> str:
@@ -98,18 +123,26 @@ def check_strategies(config: dict, specs: dict | None = None) -> None:
             )
     checked = set()
     for dataset in config["datasets"]:
-        for name, _seed in dataset_runs(config, dataset):
+        names = [n for fw in FRAMEWORKS for n, _seed in dataset_runs(config, dataset, fw)]
+        for name in dict.fromkeys(names):
             if name not in specs:
                 continue  # check_plan names it
             spec = dataset_method(config, dataset, name, specs)
-            key = (spec.strategy, repr(sorted(spec.params.items())))
+            key = (spec.strategy, repr(sorted(spec.params.items())), spec.features)
             if key in checked:
                 continue
             checked.add(key)
             try:
-                get(spec.strategy, **spec.params)
+                strategy = get(spec.strategy, **spec.params)
             except ValueError as err:
                 raise ValueError(f"config key 'methods.{name}': {err}") from None
+            scored = set(strategy.needs) - FEATURE_NEEDS
+            if spec.features == "embedding" and scored:
+                raise ValueError(
+                    f"config key 'methods.{name}.features': embedding replaces a strategy's "
+                    f"features only, but {spec.strategy} also needs {sorted(scored)} of the "
+                    "trained model; use features: model."
+                )
 
 
 def method_specs(config: dict) -> dict[str, MethodSpec]:
@@ -130,6 +163,7 @@ def method_specs(config: dict) -> dict[str, MethodSpec]:
             params=params,
             use_variants=bool(entry.get("use_variants", False)),
             n_variants=entry.get("n_variants"),
+            features=entry.get("features", "model"),
         )
     for name, point in sweep_points(config).items():
         if name in specs:
@@ -141,9 +175,15 @@ def method_specs(config: dict) -> dict[str, MethodSpec]:
             n_variants = point["value"]
         else:
             params[point["parameter"]] = point["value"]
-        specs[name] = MethodSpec(name, base.strategy, params, base.use_variants, n_variants)
-    for entry in config["datasets"].values():
-        budget = (entry.get("experiments") or {}).get("budget") or {}
+        specs[name] = MethodSpec(
+            name, base.strategy, params, base.use_variants, n_variants, base.features
+        )
+    budgets = [
+        framework_experiments(entry, fw).get("budget") or {}
+        for entry in config["datasets"].values()
+        for fw in FRAMEWORKS
+    ]
+    for budget in budgets:
         if not budget.get("matched"):
             continue
         for name in budget["methods"]:
@@ -151,11 +191,15 @@ def method_specs(config: dict) -> dict[str, MethodSpec]:
             twin = matched_name(name)
             if spec is None or spec.use_variants or twin in specs:
                 continue
-            specs[twin] = MethodSpec(twin, spec.strategy, dict(spec.params), True, spec.n_variants)
+            specs[twin] = MethodSpec(
+                twin, spec.strategy, dict(spec.params), True, spec.n_variants, spec.features
+            )
     return specs
 
 
-def budget_families(config: dict, dataset: str, specs=None) -> dict[str, list[str]]:
+def budget_families(
+    config: dict, dataset: str, specs=None, framework: str = "supervised"
+) -> dict[str, list[str]]:
     """The two families of a dataset's budget experiment, method names in run order.
 
     ``paper``: the methods trained on observed images only, and DUIS (as the paper
@@ -165,7 +209,7 @@ def budget_families(config: dict, dataset: str, specs=None) -> dict[str, list[st
     acquisition alone. Empty lists without a budget experiment.
     """
     specs = specs if specs is not None else method_specs(config)
-    budget = (config["datasets"][dataset].get("experiments") or {}).get("budget")
+    budget = framework_experiments(config["datasets"][dataset], framework).get("budget")
     if not budget:
         return {"paper": [], "matched": []}
     named = [m for m in budget["methods"] if m in specs]
@@ -177,14 +221,15 @@ def budget_families(config: dict, dataset: str, specs=None) -> dict[str, list[st
     return {"paper": paper, "matched": matched}
 
 
-def experiments_of(config: dict, dataset: str, specs=None) -> dict:
-    """A dataset's ``experiments`` as run: the budget experiment's ``methods`` hold the
-    matched twins too (observed-only methods first, then the variant-trained ones,
-    DUIS last) and ``families`` names both families (``budget_families``)."""
-    experiments = dict(config["datasets"][dataset].get("experiments") or {})
+def experiments_of(config: dict, dataset: str, specs=None, framework: str = "supervised") -> dict:
+    """A dataset's experiments in ``framework`` as run: the budget experiment's
+    ``methods`` hold the matched twins too (observed-only methods first, then the
+    variant-trained ones, DUIS last) and ``families`` names both families
+    (``budget_families``)."""
+    experiments = framework_experiments(config["datasets"][dataset], framework)
     if "budget" not in experiments:
         return experiments
-    families = budget_families(config, dataset, specs)
+    families = budget_families(config, dataset, specs, framework)
     methods = [m for m in families["paper"] if m != FULL_METHOD]
     methods += [m for m in families["matched"] if m != FULL_METHOD]
     methods += [m for m in experiments["budget"]["methods"] if m not in methods]
@@ -203,7 +248,12 @@ def dataset_method(config: dict, dataset: str, name: str, specs=None) -> MethodS
     if not override:
         return spec
     return MethodSpec(
-        spec.name, spec.strategy, {**spec.params, **override}, spec.use_variants, spec.n_variants
+        spec.name,
+        spec.strategy,
+        {**spec.params, **override},
+        spec.use_variants,
+        spec.n_variants,
+        spec.features,
     )
 
 
@@ -251,10 +301,13 @@ def sweep_table_spec(config: dict, dataset_m: int) -> dict[str, dict]:
     return table
 
 
-def dataset_runs(config: dict, dataset: str) -> dict[tuple[str, int], int]:
-    """(method, seed) -> number of rounds (trainings) the dataset's experiments need."""
+def dataset_runs(
+    config: dict, dataset: str, framework: str = "supervised"
+) -> dict[tuple[str, int], int]:
+    """(method, seed) -> number of rounds (trainings) the dataset's experiments in
+    ``framework`` need."""
     entry = config["datasets"][dataset]
-    exps = experiments_of(config, dataset)
+    exps = experiments_of(config, dataset, framework=framework)
     runs: dict[tuple[str, int], int] = {}
 
     def need(methods, seeds, rounds):
@@ -384,7 +437,11 @@ def check_plan(config: dict) -> None:
                 f"config key 'datasets.{dataset}.oracle': an unlabeled folder has no labels "
                 "to simulate the oracle with; set oracle: human."
             )
-        for (method, _seed), rounds in dataset_runs(config, dataset).items():
+        runs = {}
+        for framework in FRAMEWORKS:
+            for key, rounds in dataset_runs(config, dataset, framework).items():
+                runs[key] = max(runs.get(key, 0), rounds)
+        for (method, _seed), rounds in runs.items():
             if method not in specs:
                 raise ValueError(
                     f"config key 'datasets.{dataset}.experiments': method {method!r} is not "
@@ -394,6 +451,5 @@ def check_plan(config: dict) -> None:
                 raise ValueError(
                     f"config key 'datasets.{dataset}.experiments': rounds must be >= 1."
                 )
-        runs = dataset_runs(config, dataset)
         _check_batches(dataset, entry, max(runs.values(), default=0))
         _check_candidate_pools(config, dataset, runs, specs)

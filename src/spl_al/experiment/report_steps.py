@@ -5,6 +5,18 @@ from __future__ import annotations
 
 from spl_al.atomic import atomic_write, write_json
 
+EMBEDDING_NOTE = (
+    "embedding framework: each round a linear classifier on a frozen self-supervised "
+    "encoder's embeddings, fp32"
+)
+
+
+def framework_notes(df) -> list[str]:
+    """The note a table, figure or summary of these records carries for its framework."""
+    from spl_al.report import framework_of
+
+    return [EMBEDDING_NOTE] if framework_of(df) == "embedding" else []
+
 
 def make_table(
     metrics_paths, kind: str, *, experiments: dict, sweeps: dict, out_stem, notes=()
@@ -22,6 +34,7 @@ def make_table(
         "ablation": f"ablation: {metric} (%) at round {at_round}",
         "sensitivity": f"parameter sensitivity of DUIS: {metric} (%)",
     }[kind]
+    notes = [*framework_notes(df), *notes]
     if notes:
         caption += f" ({'; '.join(str(n) for n in notes)})"
     if kind == "budget":
@@ -58,6 +71,8 @@ def make_curves(
 
     df = report.load_records(metrics_paths)
     df = df[df["method"].isin(methods)]
+    if framework_notes(df):
+        title = f"{title}, embedding framework (linear classifier, frozen encoder)"
     if per_level:
         report.plot_level_curves(df, png, path_pdf=pdf, methods=methods, title=title)
         return
@@ -75,8 +90,10 @@ def make_summary(metrics_paths, out_path, notes=(), families=None) -> dict:
     experiment's ``families`` ({"paper": [...], "matched": [...]}, when given)."""
     from spl_al import report
 
-    result = report.summary(report.load_records(metrics_paths))
-    result["notes"] = [str(n) for n in notes]
+    df = report.load_records(metrics_paths)
+    result = report.summary(df)
+    result["framework"] = report.framework_of(df)
+    result["notes"] = [*framework_notes(df), *(str(n) for n in notes)]
     if families:
         result["families"] = {k: list(v) for k, v in families.items()}
     write_json(result, out_path)
@@ -108,8 +125,14 @@ def make_stats(metrics_paths, experiments: dict, sweeps: dict, out: dict) -> Non
     atomic_write_text(out["comparisons_md"], render_comparisons_markdown(stored))
     budget_exp = experiments.get("budget", {})
     in_paper = experiments.get("levels", {}).get("in_paper", True)
-    verdicts = claims(stored, budget_exp.get("families"), levels_in_paper=in_paper)
+    verdicts = claims(
+        stored,
+        budget_exp.get("families"),
+        levels_in_paper=in_paper,
+        framework=report.framework_of(df),
+    )
     verdicts = at_precision(verdicts, report.trained_at(df))  # decided in fp32 alone
+    verdicts["framework"] = report.framework_of(df)
     atomic_write(out["claims_csv"], lambda tmp: verdicts.to_csv(tmp, index=False))
     name = str(df["dataset"].iloc[0])
     atomic_write_text(out["claims_md"], render_claims_markdown(verdicts, dataset=name))

@@ -19,8 +19,8 @@ from spl_al.experiment.plan import MethodSpec
 from spl_al.pool import read_labeled
 
 # Streams of np.random.SeedSequence([seed, round, stream]): one per kind of draw.
-_TRAIN_STREAM = 1
-_QUERY_STREAM = 2
+TRAIN_STREAM = 1
+QUERY_STREAM = 2
 
 
 def step_seed(seed: int, round_: int, stream: int) -> int:
@@ -213,7 +213,7 @@ def fit_and_evaluate(
         model=model,
         fit=fit,
         n_variants=n_variants,
-        seed=step_seed(seed, round_, _TRAIN_STREAM),
+        seed=step_seed(seed, round_, TRAIN_STREAM),
         compute=compute,
         log=log,
     )
@@ -458,6 +458,7 @@ def train_round(
     log=None,
     start: RoundStart = FRESH,
     score: bool = True,
+    embeddings=None,
 ) -> dict:
     """Train on round r's labeled groups, evaluate on the test split, then score the
     unlabeled pool for the next query (``score_pool``) with the model still in memory.
@@ -480,6 +481,9 @@ def train_round(
     fine-tunes them (``fit_and_evaluate``).
     ``score``: False in a run's last round, whose scores no query reads: ``out.scores``
     then holds the index sets only (a query on it is refused, naming what is missing).
+    ``embeddings``: the dataset's self-supervised embeddings (``embedding_steps``), for
+    a method with ``features: embedding``: its features come from them
+    (``linear_probe.embedding_features``).
     """
     initial = start.initial
     started = time.perf_counter()
@@ -488,6 +492,7 @@ def train_round(
     if initial is not None and initial.scores is not None:
         shared = _shared_round0(initial, method, pool_idx, out)
         if shared is not None:
+            _features_of(method, out.scores, embeddings, shared["dataset"]["n_variants"])
             fit = _fit_of_record(None, shared)
             extra = _fit_facts(fit, score_seconds=0.0, started=started)
             record = _metrics_record(
@@ -526,11 +531,32 @@ def train_round(
         unlabeled = np.setdiff1d(np.arange(len(dataset.train_idx)), pool_idx)
         StrategyInputs(unlabeled_idx=unlabeled, labeled_idx=pool_idx).save(out.scores)
         scored = {"unlabeled": int(unlabeled.size), "seconds": 0.0}
+    _features_of(method, out.scores, embeddings, dataset.n_variants)
     extra = _fit_facts(fit, score_seconds=scored["seconds"], started=started)
     facts = dataset_facts(dataset)
     record = _metrics_record(facts, setup, which, pool_idx.size, fit.metrics, extra)
     write_json(record, out.record)
     return record
+
+
+def _features_of(method: MethodSpec, scores_path, embeddings, n_variants: int) -> None:
+    """Swap the round's features for the self-supervised embedding's when the method
+    selects on it (``features: embedding``)."""
+    if method.features != "embedding":
+        return
+    if embeddings is None:
+        raise ValueError(
+            f"method {method.name!r} selects on the self-supervised embedding "
+            "(features: embedding), but the round was given no embeddings file."
+        )
+    from spl_al.linear_probe import embedding_features
+    from spl_al.strategies import StrategyInputs
+
+    with np.load(embeddings, allow_pickle=False) as f:
+        train = f["train"]
+    inputs = StrategyInputs.load(scores_path)
+    n_images = 1 + method.variants_seen(n_variants)
+    embedding_features(inputs, train, n_images=n_images).save(scores_path)
 
 
 def _fit_facts(fit: Fit, *, score_seconds: float, started: float) -> dict:
@@ -689,7 +715,7 @@ def query_round(
             fraction=strategy.max_cand_fraction,
         )
         raise CandidatePoolTooLarge(message, err.n_cand, err.n_unlabeled) from None
-    rng = np.random.default_rng(step_seed(seed, round_ - 1, _QUERY_STREAM))
+    rng = np.random.default_rng(step_seed(seed, round_ - 1, QUERY_STREAM))
     try:
         picked = check_picks(spec.strategy, strategy.select(inputs, int(batch), rng), inputs, batch)
     except StrategyContractError as err:

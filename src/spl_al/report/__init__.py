@@ -25,6 +25,7 @@ from spl_al.report.display import (
 )
 from spl_al.report.records import (
     LEVELS,
+    framework_of,
     load_records,
     one_dataset,
     records_frame,
@@ -50,6 +51,7 @@ __all__ = [
     "curve_area",
     "curves_figure",
     "format_ratio",
+    "framework_of",
     "latex_escape",
     "level_curves_figure",
     "level_table",

@@ -321,23 +321,37 @@ LOW_BUDGET = ("typiclust", "probcover", "maxherding")
 """The low-budget baselines (scikit-activeml's, ``spl_al.strategies.skactiveml_adapter``)."""
 
 
-def _low_budget_claim(cmp: pd.DataFrame, families) -> dict | None:
+SSL_SUFFIX = "_ssl"
+"""A method named X_ssl selects on the self-supervised embedding (``features: embedding``)."""
+
+
+def feature_space(method: str, framework: str) -> str:
+    """What a low-budget baseline selected on, in words."""
+    if framework == "embedding" or method.endswith(SSL_SUFFIX):
+        return "the frozen self-supervised embedding"
+    return "the trained CNN's penultimate features"
+
+
+def _low_budget_claim(cmp: pd.DataFrame, families, framework: str) -> dict | None:
     """DUIS's AUBC over the query rounds beats the strongest low-budget baseline trained
-    on the variants (``syn_X`` of ``LOW_BUDGET``, the one with the highest mean AUBC):
-    acquisition against acquisition at equal training. None without one in the run."""
+    on the variants (``syn_X`` of ``LOW_BUDGET``, or ``syn_X_ssl``, the one with the
+    highest mean AUBC): acquisition against acquisition at equal training; the claim
+    names the feature space the baseline selected on. None without one in the run."""
     matched = (families or {}).get("matched") or []
-    twins = [m for m in matched if m in {f"syn_{x}" for x in LOW_BUDGET}]
+    low = {f"syn_{x}{s}" for x in LOW_BUDGET for s in ("", SSL_SUFFIX)}
+    twins = [m for m in matched if m in low]
     area = cmp[(cmp["experiment"] == "budget") & (cmp["point"] == "AUBC")]
     rows = _with_full(area, twins) if twins else area.iloc[0:0]
     if rows.empty:
         return None
     best = rows.loc[[rows["mean_b"].astype(float).idxmax()]]
     span = f" ({best['span'].iloc[0]})" if "span" in best and pd.notna(best["span"].iloc[0]) else ""
-    rival = method_label(str(best["method_b"].iloc[0]))
+    name = str(best["method_b"].iloc[0])
+    space = feature_space(name, framework)
     return _all_beat(
         "duis_over_low_budget_matched",
         f"DUIS has a larger AUBC over query rounds{span} than the strongest low-budget "
-        f"baseline, {rival}, under matched training.",
+        f"baseline, {method_label(name)} (selecting on {space}), under matched training.",
         "budget",
         best,
     )
@@ -470,7 +484,11 @@ def _ncand_claim(cmp: pd.DataFrame) -> dict | None:
 
 
 def claims(
-    cmp: pd.DataFrame, families: dict | None = None, *, levels_in_paper: bool = True
+    cmp: pd.DataFrame,
+    families: dict | None = None,
+    *,
+    levels_in_paper: bool = True,
+    framework: str = "supervised",
 ) -> pd.DataFrame:
     """The paper's claims and this project's extensions judged on one dataset's
     comparisons frame (see module docstring).
@@ -489,7 +507,7 @@ def claims(
     metric = "mIoU" if first["metric"] == "miou" else metric.lower()
     rows = [
         *_best_method_claims(cmp, metric, families or {}),
-        _low_budget_claim(cmp, families),
+        _low_budget_claim(cmp, families, framework),
         *_decomposition_claims(cmp),
         _m_claim(cmp),
         _ncand_claim(cmp),
@@ -587,6 +605,12 @@ def render_claims_markdown(frame: pd.DataFrame, dataset: str | None = None) -> s
     precision = frame["precision"].iloc[0] if "precision" in frame and not frame.empty else ""
     has = isinstance(precision, str) and precision
     trained = f" (models trained in {precision})" if has else ""
+    framework = frame["framework"].iloc[0] if "framework" in frame and not frame.empty else ""
+    if framework == "embedding":
+        trained = (
+            " in the embedding framework (a linear classifier on a frozen self-supervised "
+            f"encoder's embeddings, {precision or 'fp32'})"
+        )
     lines = [f"**Claims checked on {name}{trained}.**"]
     if frame.empty:
         return (

@@ -31,6 +31,13 @@ METHOD_LABELS = {
     "syn_typiclust": "Syn+TypiClust",
     "syn_probcover": "Syn+ProbCover",
     "syn_maxherding": "Syn+MaxHerding",
+    # the same, selecting on the self-supervised embedding (features: embedding)
+    "typiclust_ssl": "TypiClust (SSL)",
+    "probcover_ssl": "ProbCover (SSL)",
+    "maxherding_ssl": "MaxHerding (SSL)",
+    "syn_typiclust_ssl": "Syn+TypiClust (SSL)",
+    "syn_probcover_ssl": "Syn+ProbCover (SSL)",
+    "syn_maxherding_ssl": "Syn+MaxHerding (SSL)",
     "duis": "DUIS",
 }
 
@@ -70,6 +77,8 @@ _STRATEGY_COLORS = {
 PALETTE = {
     **_STRATEGY_COLORS,
     **{f"syn_{k}": v for k, v in _STRATEGY_COLORS.items()},
+    **{f"{k}_ssl": v for k, v in _STRATEGY_COLORS.items()},
+    **{f"syn_{k}_ssl": v for k, v in _STRATEGY_COLORS.items()},
     "duis": "#d62728",
 }
 """Fixed colour of every known method; ``syn_X`` shares the colour of ``X``."""

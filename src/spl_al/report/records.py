@@ -53,8 +53,13 @@ FRAME_COLUMNS = (
     "train_steps",
     "images_seen",
     "precision",
+    "framework",
     "source",
 )
+
+# How a round's model learned (its record's ``framework``; absent: supervised):
+# ``spl_al.experiment.plan.FRAMEWORKS``.
+FRAMEWORKS = ("supervised", "embedding")
 
 # What a round's model may have been trained at (its record's ``precision``).
 TRAINED_AT = ("fp32", "bf16", "fp16")
@@ -90,6 +95,8 @@ def _check_optional(record: Mapping, bad) -> None:
             raise bad(key, "an integer >= 1")
     if record.get("precision", TRAINED_AT[0]) not in TRAINED_AT:
         raise bad("precision", f"one of {list(TRAINED_AT)}")
+    if record.get("framework", FRAMEWORKS[0]) not in FRAMEWORKS:
+        raise bad("framework", f"one of {list(FRAMEWORKS)}")
 
 
 def validate_record(record, where: str = "record") -> dict:
@@ -160,6 +167,7 @@ def validate_record(record, where: str = "record") -> dict:
         "train_seconds": float(train_seconds) if train_seconds is not None else math.nan,
         **{key: float(v) if v is not None else math.nan for key, v in counts.items()},
         "precision": record.get("precision") or "",
+        "framework": record.get("framework") or FRAMEWORKS[0],
         "source": where,
     }
 
@@ -194,6 +202,7 @@ def _frame(rows: list[dict]) -> pd.DataFrame:
         if len(metrics) > 1:
             raise ValueError(f"dataset {dataset!r} mixes metrics {sorted(metrics)}; expected one.")
     _check_one_precision(frame)
+    _check_one_framework(frame)
     return frame.sort_values(key, ignore_index=True)
 
 
@@ -215,6 +224,25 @@ def _check_one_precision(frame: pd.DataFrame) -> None:
             )
 
 
+def _check_one_framework(frame: pd.DataFrame) -> None:
+    """A ValueError unless each dataset's rounds come from one framework."""
+    for dataset, part in frame.groupby("dataset"):
+        if part["framework"].nunique() > 1:
+            first = part.drop_duplicates("framework").sort_values("framework")
+            found = ", ".join(
+                f"{f} ({s})" for f, s in zip(first["framework"], first["source"], strict=True)
+            )
+            raise ValueError(
+                f"dataset {dataset!r} mixes rounds of different frameworks, {found}; "
+                "a table reads one framework's records."
+            )
+
+
+def framework_of(df: pd.DataFrame) -> str:
+    """The one framework of the frame's rounds."""
+    return str(df["framework"].iloc[0]) if len(df) else FRAMEWORKS[0]
+
+
 def trained_at(df: pd.DataFrame) -> str:
     """The one precision the frame's rounds were trained at ("" when not recorded)."""
     known = sorted(set(df["precision"]) - {""})
@@ -234,7 +262,7 @@ def records_frame(records: Iterable[Mapping]) -> pd.DataFrame:
 
 
 def load_records(paths) -> pd.DataFrame:
-    """Read metrics JSON files (one record each) into the records frame.
+    """Read metrics JSON files (one record each, or a list of them) into the records frame.
 
     ``paths``: one path or an iterable of paths. A file that is not JSON, or whose
     record breaks the contract, raises a ValueError naming the file and the key.
@@ -247,7 +275,10 @@ def load_records(paths) -> pd.DataFrame:
             record = json.loads(path.read_text())
         except (OSError, UnicodeDecodeError, json.JSONDecodeError) as exc:
             raise ValueError(f"{path}: not a readable JSON metrics record ({exc}).") from None
-        rows.append(validate_record(record, where=str(path)))
+        if isinstance(record, list):  # a runs file: every round of a method's runs
+            rows += [validate_record(r, where=f"{path}[{i}]") for i, r in enumerate(record)]
+        else:
+            rows.append(validate_record(record, where=str(path)))
     if not rows:
         raise ValueError("paths is empty; expected at least one metrics JSON file.")
     return _frame(rows)

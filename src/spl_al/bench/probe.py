@@ -1,0 +1,173 @@
+"""Linear probe against the supervised CNN: ``python -m spl_al.bench probe [DATASET.npz ...]``.
+
+How good is the embedding framework's model? For each dataset, on the validation
+split (``spl_al.data.validation_split``; the test split is never read), at the
+dataset's own budgets (the labeled counts of its embedding budget experiment's
+rounds): validation accuracy of
+
+- the linear probe (``spl_al.linear_probe``) on the frozen self-supervised embedding,
+  fitted on the labeled groups' observed images and on every image of them (as
+  the baselines and the Syn+X methods / DUIS train in the embedding framework), at
+  each probe strength ``--c`` (the one the config sets is chosen here);
+- the configured CNN trained as a supervised round trains it (observed images, and
+  with the variants),
+
+mean ± std over random labeled sets (``--seeds``), drawn from the fit part. The
+encoder is trained on the fit part's frames alone (no validation or test image), with
+the config's ``embedding.encoder`` recipe; its training time and achieved FLOP rate
+are printed.
+
+Without arguments it runs the default config's datasets that have an embedding
+framework (synthesised as the pipeline makes them, cached).
+"""
+
+from __future__ import annotations
+
+import argparse
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+
+from spl_al.bench.timing import markdown_table
+
+SEEDS = (1, 2, 3)
+C_VALUES = (0.1, 1.0, 10.0)
+
+
+def probe_scores(
+    dataset, embeddings: np.ndarray, labeled, held_out, *, c: float, variants: bool
+) -> float:
+    """Validation accuracy of the linear probe fitted on ``labeled`` (sample indices);
+    ``embeddings``: (N, G, d) of every sample's images."""
+    from spl_al.linear_probe import LinearProbe
+
+    from threadpoolctl import threadpool_limits
+
+    g = embeddings.shape[1] if variants else 1
+    x = embeddings[labeled, :g].reshape(-1, embeddings.shape[-1])
+    y = np.repeat(dataset.labels[labeled], g)
+    with threadpool_limits(limits=1):  # as a pipeline job fits it (embedding_steps)
+        probe = LinearProbe(len(dataset.classes), c).fit(x, y)
+    predicted = probe.predict_proba(embeddings[held_out, 0]).argmax(axis=1)
+    return float((predicted == dataset.labels[held_out]).mean())
+
+
+def encode_fit_part(dataset, fit_idx, encoder_cfg: dict, *, log=print):
+    """The encoder trained on the fit part's frames, the embeddings (N, G, d) of every
+    sample of ``dataset``, and its training record."""
+    from spl_al.training.contrastive import EncoderConfig, embed, train_encoder
+
+    depth, valid = dataset.groups(fit_idx)
+    encoder, record = train_encoder(depth, valid, cfg=EncoderConfig.from_dict(encoder_cfg))
+    depth_all, valid_all = dataset.groups()
+    n, g, h, w = depth_all.shape
+    flat = embed(encoder, depth_all.reshape(n * g, h, w), valid_all.reshape(n * g, h, w))
+    rate = record["flops_per_step"] * record["steps"] / record["train_seconds"] / 1e9
+    log(
+        f"  encoder: {record['steps']} steps in {record['train_seconds']:.1f} s, "
+        f"{rate:.1f} GFLOP/s achieved (fp32)"
+    )
+    return flat.reshape(n, g, -1), {**record, "gflops": rate}
+
+
+def compare(dataset, entry: dict, *, seeds=SEEDS, c_values=C_VALUES, cnn=True, log=print):
+    """One row per budget: probe (per C, observed / with variants) and CNN scores."""
+    from spl_al.bench.learnability import learner_score, tuning_split
+    from spl_al.experiment.plan import labeled_at
+    from spl_al.pool import initial_labeled_set
+
+    embedding = entry["embedding"]
+    fit_idx, held_out = tuning_split(dataset)
+    embeddings, record = encode_fit_part(dataset, fit_idx, embedding.get("encoder") or {}, log=log)
+    rounds = embedding["experiments"]["budget"]["rounds"]
+    rows = []
+    for r in range(rounds):
+        n = labeled_at(entry["al"], r)
+        row = {"n": n, "cnn": [], "cnn_variants": []}
+        for seed in seeds:
+            labeled = fit_idx[initial_labeled_set(len(fit_idx), n, seed)]
+            for c in c_values:
+                for variants in (False, True):
+                    key = f"probe_c{c:g}" + ("_variants" if variants else "")
+                    row.setdefault(key, []).append(
+                        probe_scores(dataset, embeddings, labeled, held_out, c=c, variants=variants)
+                    )
+            if cnn:
+                recipe = {
+                    "model_cfg": entry["train"]["model"],
+                    "fit_cfg": entry["train"]["fit"],
+                    "seed": seed,
+                }
+                row["cnn"].append(
+                    learner_score(dataset, labeled, held_out, **recipe, variants=False)
+                )
+                row["cnn_variants"].append(
+                    learner_score(dataset, labeled, held_out, **recipe, variants=True)
+                )
+        log(
+            f"  n={n}: "
+            + ", ".join(f"{k} {np.mean(v):.3f}" for k, v in row.items() if v and k != "n")
+        )
+        rows.append(row)
+    return rows, record
+
+
+def _cell(values) -> str:
+    return f"{100 * np.mean(values):.1f} ± {100 * np.std(values):.1f}" if values else "-"
+
+
+def render(name: str, rows: list[dict], n_pool: int) -> str:
+    """Markdown: one row per budget, one column per learner."""
+    keys = [k for k in rows[0] if k != "n" and rows[0][k]]
+    header = ["labeled", *(k.replace("_", " ") for k in keys)]
+    body = [
+        [f"{r['n']} ({100 * r['n'] / n_pool:.1f}%)", *(_cell(r[k]) for k in keys)] for r in rows
+    ]
+    return (
+        f"**{name}: validation accuracy (%), mean ± std over labeled sets**\n\n"
+        + markdown_table(header, body)
+    )
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Run the probe benchmark; print its tables; the exit code."""
+    parser = argparse.ArgumentParser(prog="python -m spl_al.bench probe")
+    parser.add_argument("datasets", nargs="*", type=Path, help="dataset .npz files (with variants)")
+    parser.add_argument("--config", type=Path, default=Path("config/config.yaml"))
+    parser.add_argument(
+        "--only", nargs="*", help="config dataset names, one per file given (default: every one)"
+    )
+    parser.add_argument("--seeds", type=int, nargs="*", default=list(SEEDS))
+    parser.add_argument("--c", type=float, nargs="*", default=list(C_VALUES))
+    parser.add_argument("--no-cnn", action="store_true", help="the probe alone (seconds)")
+    args = parser.parse_args(argv)
+    import yaml
+
+    from spl_al.bench.learnability import default_datasets
+    from spl_al.data import Dataset
+
+    config = yaml.safe_load(args.config.read_text())
+    entries = {k: v for k, v in config["datasets"].items() if v.get("embedding")}
+    with tempfile.TemporaryDirectory() as tmp:
+        if args.datasets:
+            # each file is read with the config entry --only names (else its file name)
+            names = args.only or [p.stem for p in args.datasets]
+            named = [
+                (n, Dataset.load(p), entries[n]) for n, p in zip(names, args.datasets, strict=True)
+            ]
+        else:
+            names = args.only or list(entries)
+            cache = Path(tmp)
+            named = [
+                (n, d, entries[n]) for n, d, _m, _f in default_datasets(args.config, names, cache)
+            ]
+        for name, data, entry in named:
+            started = time.perf_counter()
+            print(f"{name}:")
+            rows, _ = compare(data, entry, seeds=args.seeds, c_values=args.c, cnn=not args.no_cnn)
+            print()
+            print(render(name, rows, len(data.train_idx)))
+            print(f"\n({time.perf_counter() - started:.0f} s)\n")
+    return 0

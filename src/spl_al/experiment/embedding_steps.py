@@ -1,0 +1,310 @@
+"""Steps of the embedding framework: the self-supervised encoder of a dataset, and every
+round of one method's runs on its frozen embeddings.
+
+``train_encoder`` learns the encoder once per dataset from the training pool's images
+(never a label, never a test image) and writes its weights, its card and the
+embeddings of every image. ``probe_runs`` then plays one method's whole active-learning
+runs, every seed and round, in one process: each round fits a linear classifier
+(``spl_al.linear_probe``) on the labeled groups' embeddings, measures it on the test
+split, and queries with the method's strategy from what that classifier and the
+embeddings give (``probe_inputs``). A round takes milliseconds, so 100 seeds fit in
+one job.
+
+The round-0 sets are the seeds' own (``spl_al.pool.initial_labeled_set``, as the
+supervised framework's ``initial_set`` draws them), and a query's random stream is
+the supervised query's (``step_seed(seed, round, QUERY_STREAM)``): the two
+frameworks differ in the model alone.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass
+
+import numpy as np
+
+from spl_al.atomic import atomic_write, read_json, write_json
+from spl_al.experiment.jobs import LOCAL, Compute
+from spl_al.experiment.plan import MethodSpec, batch_of
+from spl_al.experiment.round_steps import QUERY_STREAM, save_model, step_seed
+
+FRAMEWORK = "embedding"
+CARD_KEYS = ("dataset", "variants", "image_shape")
+
+
+def encoder_card(*, dataset: str, variants: dict, image_shape, encoder: dict, record: dict):
+    """The encoder's card: what it was trained on and how (JSON-ready)."""
+    from spl_al import __version__
+
+    return {
+        "framework": FRAMEWORK,
+        "dataset": dataset,
+        "variants": dict(variants),
+        "image_shape": [int(s) for s in image_shape],
+        "encoder": dict(encoder),
+        "trained_on": "the training split's frames, every image of each group; no label",
+        "precision": "fp32",
+        "spl_al_version": __version__,
+        **record,
+    }
+
+
+def check_card(card: dict, *, dataset: str, variants: dict, image_shape, where) -> None:
+    """A ValueError, one sentence naming what differs, unless the encoder's ``card`` was
+    trained on ``dataset`` with these ``variants`` settings and ``image_shape``."""
+    expected = {
+        "dataset": dataset,
+        "variants": dict(variants),
+        "image_shape": [int(s) for s in image_shape],
+    }
+    for key in CARD_KEYS:
+        if card.get(key) != expected[key]:
+            raise ValueError(
+                f"{where}: the encoder was trained with {key} {card.get(key)!r}, but this run "
+                f"has {key} {expected[key]!r}; train the encoder again for this dataset "
+                "(remove it and rerun)."
+            )
+
+
+def train_encoder(
+    dataset_path,
+    *,
+    dataset: str,
+    encoder: dict,
+    variants: dict,
+    out: dict,
+    compute: Compute = LOCAL,
+    log=None,
+) -> dict:
+    """Train the dataset's encoder on its training split and embed every image.
+
+    ``encoder``: config ``embedding.encoder`` (``EncoderConfig``); ``variants``: the
+    dataset's config ``variants`` (recorded on the card). ``out``: paths ``encoder``
+    (weights), ``card`` (JSON), ``embeddings`` (.npz: ``train`` (n_train, G, d) of
+    every image of each training group, ``test`` (n_test, d) of the test split's
+    observed images, and the split's indices). Returns the card.
+    """
+    from spl_al.data import SCENE_FIELDS, Dataset
+    from spl_al.training.contrastive import EncoderConfig, embed
+    from spl_al.training.contrastive import train_encoder as fit_encoder
+
+    compute.apply()
+    data = Dataset.load(dataset_path, skip=SCENE_FIELDS)
+    cfg = EncoderConfig.from_dict(encoder)
+    depth, valid = data.groups(data.train_idx)
+    model, record = fit_encoder(depth, valid, cfg=cfg, device=compute.device, log=log)
+    started = time.perf_counter()
+    n, g, h, w = depth.shape
+    train = embed(model, depth.reshape(n * g, h, w), valid.reshape(n * g, h, w)).reshape(n, g, -1)
+    test_depth = data.depth_m[data.test_idx]
+    test = embed(model, test_depth, np.isfinite(test_depth))
+    record["embed_seconds"] = round(time.perf_counter() - started, 3)
+    save_model(model, out["encoder"])
+
+    def write(tmp):
+        with open(tmp, "wb") as fh:
+            np.savez(fh, train=train, test=test, train_idx=data.train_idx, test_idx=data.test_idx)
+
+    atomic_write(out["embeddings"], write)
+    card = encoder_card(
+        dataset=dataset,
+        variants=variants,
+        image_shape=(h, w),
+        encoder=cfg.as_dict(),
+        record={"frames": int(n), "images_per_frame": int(g), **record},
+    )
+    write_json(card, out["card"])
+    return card
+
+
+def load_embeddings(path, data) -> tuple[np.ndarray, np.ndarray]:
+    """(train (n_train, G, d), test (n_test, d)) of ``train_encoder``'s file, checked
+    against the dataset's split."""
+    with np.load(path, allow_pickle=False) as f:
+        if not (
+            np.array_equal(f["train_idx"], data.train_idx)
+            and np.array_equal(f["test_idx"], data.test_idx)
+        ):
+            raise ValueError(
+                f"{path}: embeddings of another train/test split than the dataset's; train "
+                "the encoder again (remove it and rerun)."
+            )
+        return f["train"], f["test"]
+
+
+@dataclass(frozen=True)
+class ProbeData:
+    """What every run of a dataset reads: embeddings, the oracle's training labels (read
+    for labeled groups only), the test split's labels and levels, and record facts."""
+
+    train: np.ndarray  # (n_train, G, d)
+    test: np.ndarray  # (n_test, d)
+    train_labels: np.ndarray
+    test_labels: np.ndarray
+    test_levels: np.ndarray
+    n_classes: int
+    n_total: int
+    standin: bool
+
+
+def probe_runs(
+    dataset_path,
+    embeddings_path,
+    card_path,
+    *,
+    dataset: str,
+    method_name: str,
+    method: dict,
+    variants: dict,
+    al: dict,
+    seeds,
+    rounds: int,
+    probe: dict | None = None,
+    out_path,
+    log=None,
+) -> list[dict]:
+    """Every round of ``method_name``'s runs at ``seeds`` in the embedding framework.
+
+    ``method``: MethodSpec fields; ``variants``: the dataset's config ``variants`` (the
+    encoder's card must match it); ``al``: the dataset's ``al`` (initial, batch,
+    ratio_of, stratified_initial); ``rounds``: rounds per run (round 0 included);
+    ``probe``: config ``embedding.probe`` (``c``). Writes a JSON list of metrics
+    records (one per seed and round, as ``spl_al.report`` reads them, with
+    ``framework: embedding`` and each round's labeled set) to ``out_path``.
+    """
+    from threadpoolctl import threadpool_limits
+
+    from spl_al.data import SCENE_FIELDS, Dataset
+    from spl_al.linear_probe import DEFAULT_C
+
+    data = Dataset.load(dataset_path, skip=SCENE_FIELDS)
+    check_card(
+        read_json(card_path),
+        dataset=dataset,
+        variants=variants,
+        image_shape=data.depth_m.shape[1:],
+        where=card_path,
+    )
+    emb_train, emb_test = load_embeddings(embeddings_path, data)
+    n_train = len(data.train_idx)
+    facts = ProbeData(
+        train=emb_train,
+        test=emb_test,
+        train_labels=data.labels[data.train_idx],
+        test_labels=data.labels[data.test_idx],
+        test_levels=data.level[data.test_idx],
+        n_classes=len(data.classes),
+        n_total=len(data) if al.get("ratio_of", "train") == "all" else n_train,
+        standin=bool(data.meta.get("synthetic_standin", False)),
+    )
+    spec = MethodSpec(name=method_name, **{"params": {}, **method})
+    started = time.perf_counter()
+    records = []
+    # One BLAS/OpenMP thread, the job's one core: two -j2 jobs whose OpenMP threads
+    # spin on the same two cores made a fit ~250x slower (7 s instead of 27 ms).
+    with threadpool_limits(limits=1):
+        for seed in seeds:
+            records += _run(
+                facts,
+                spec,
+                which=(dataset, int(seed)),
+                al=al,
+                rounds=int(rounds),
+                c=float((probe or {}).get("c", DEFAULT_C)),
+                n_variants=data.n_variants,
+            )
+    if log is not None:
+        print(
+            f"{dataset}/{method_name}: {len(records)} rounds of {len(list(seeds))} seeds "
+            f"in {time.perf_counter() - started:.1f} s",
+            file=log,
+        )
+    write_json(records, out_path)
+    return records
+
+
+def _record(facts: ProbeData, model, method: str, *, which, n_labeled, n_images) -> dict:
+    """The metrics record of one round: ``model`` measured on the test split.
+    ``which``: (dataset, seed, round); ``n_images``: the images it was fitted on."""
+    from spl_al.data.dataset import LEVELS
+
+    dataset, seed, round_ = which
+    correct = model.predict_proba(facts.test).argmax(axis=1) == facts.test_labels
+    levels = facts.test_levels
+    return {
+        "dataset": dataset,
+        "method": method,
+        "seed": seed,
+        "round": round_,
+        "n_labeled": int(n_labeled),
+        "n_pool": len(facts.train),
+        "n_total": facts.n_total,
+        "ratio": n_labeled / facts.n_total,
+        "metric": "accuracy",
+        "value": float(correct.mean()),
+        "per_level": {
+            lv: float(correct[levels == lv].mean()) for lv in LEVELS if (levels == lv).any()
+        },
+        "synthetic_standin": facts.standin,
+        "framework": FRAMEWORK,
+        "train_images": int(n_images),
+        "precision": "fp32",
+    }
+
+
+def _run(facts: ProbeData, spec: MethodSpec, *, which, al, rounds, c, n_variants) -> list[dict]:
+    """The records of one (method, seed) run: fit, measure and query, round by round."""
+    from spl_al.linear_probe import LinearProbe, probe_inputs
+    from spl_al.pool import Pool, initial_labeled_set
+    from spl_al.strategies import check_picks, get
+
+    dataset, seed = which
+    strategy = get(spec.strategy, **spec.params)
+    m_train = spec.train_variants(n_variants)
+    n_train = len(facts.train)
+    stratified = bool(al.get("stratified_initial", False))
+    labeled = initial_labeled_set(
+        n_train,
+        int(al["initial"]),
+        seed,
+        labels=facts.train_labels if stratified else None,
+        stratified=stratified,
+    )
+    pool = Pool(n_train, labeled)
+    records = []
+    for r in range(rounds):
+        started = time.perf_counter()
+        lab = pool.labeled_idx
+        x = facts.train[lab, : m_train + 1].reshape(-1, facts.train.shape[-1])
+        model = LinearProbe(facts.n_classes, c).fit(
+            x, np.repeat(facts.train_labels[lab], m_train + 1)
+        )
+        fit_seconds = time.perf_counter() - started
+        records.append(
+            _record(
+                facts,
+                model,
+                spec.name,
+                which=(dataset, seed, r),
+                n_labeled=lab.size,
+                n_images=len(x),
+            )
+        )
+        records[-1].update(train_seconds=round(fit_seconds, 4), pool_indices=lab.tolist())
+        if r + 1 == rounds:
+            break
+        inputs = probe_inputs(
+            model,
+            facts.train,
+            strategy.needs,
+            unlabeled_idx=pool.unlabeled_idx,
+            labeled_idx=lab,
+            n_images=1 + spec.variants_seen(n_variants),
+        )
+        batch = batch_of(al, r + 1)
+        if hasattr(strategy, "check_pool"):
+            strategy.check_pool(inputs.n_unlabeled)
+        rng = np.random.default_rng(step_seed(seed, r, QUERY_STREAM))
+        pool.add(check_picks(spec.strategy, strategy.select(inputs, batch, rng), inputs, batch))
+        records[-1]["seconds"] = round(time.perf_counter() - started, 4)
+    return records

@@ -1,0 +1,234 @@
+# The embedding framework (config `datasets.{d}.embedding`): a self-supervised encoder
+# learned once per dataset on its training pool (no label, no test image), then every
+# method's runs, all seeds and rounds in one job each, on its frozen embeddings: each
+# round fits a linear classifier and queries from it (spl_al.experiment.embedding_steps).
+# Its tables, figures and statistics are the supervised framework's, under
+# results/{dataset}/embedding/.
+
+
+rule encoder:
+    input:
+        data=f"{RESULTS}/{{dataset}}/data/dataset.npz",
+    output:
+        encoder=f"{EMBEDDING}/encoder.pt",
+        card=f"{EMBEDDING}/encoder.card.json",
+        embeddings=f"{EMBEDDING}/embeddings.npz",
+    log:
+        f"{RESULTS}/logs/{{dataset}}/embedding/encoder.log",
+    benchmark:
+        f"{RESULTS}/benchmarks/{{dataset}}/embedding/encoder.tsv"
+    wildcard_constraints:
+        dataset=one_of(EMBEDDED),
+    conda:
+        "../envs/spl-al.yaml"
+    threads: config["threads_per_job"]
+    resources:
+        mem_mb=res("encoder", "mem_mb", 4000),
+        runtime=res("encoder", "runtime", 60),
+        gpu=config["gpus_per_train_job"],
+    params:
+        job=job_params(
+            encoder=lambda w: embedding_entry(w.dataset).get("encoder") or {},
+            variants=lambda w: config["datasets"][w.dataset]["variants"],
+            device=config["device"],
+        ),
+        files=job_files,
+    shell:
+        python_job("encoder")
+
+
+rule probe_runs:
+    input:
+        data=f"{RESULTS}/{{dataset}}/data/dataset.npz",
+        embeddings=f"{EMBEDDING}/embeddings.npz",
+        card=f"{EMBEDDING}/encoder.card.json",
+    output:
+        f"{EMBEDDING}/runs/{{method}}.json",
+    log:
+        f"{RESULTS}/logs/{{dataset}}/embedding/{{method}}.log",
+    benchmark:
+        f"{RESULTS}/benchmarks/{{dataset}}/embedding/{{method}}.tsv"
+    wildcard_constraints:
+        dataset=one_of(EMBEDDED),
+    conda:
+        "../envs/spl-al.yaml"
+    threads: 1
+    resources:
+        mem_mb=res("probe_runs", "mem_mb", 2000),
+        runtime=res("probe_runs", "runtime", 30),
+    params:
+        job=job_params(
+            method=lambda w: dataset_method(
+                config, w.dataset, w.method, METHODS
+            ).as_dict(),
+            variants=lambda w: config["datasets"][w.dataset]["variants"],
+            al=lambda w: config["datasets"][w.dataset]["al"],
+            probe=lambda w: embedding_entry(w.dataset).get("probe") or {},
+            seeds=lambda w: probe_run_params(w)["seeds"],
+            rounds=lambda w: probe_run_params(w)["rounds"],
+        ),
+        files=job_files,
+    shell:
+        python_job("probe_runs")
+
+
+use rule table as embedding_table with:
+    input:
+        metrics=lambda w: probe_runs_files(w.dataset),
+    output:
+        csv=report(
+            f"{EMBEDDING}/tables/{{table}}.csv",
+            caption="../report/table.rst",
+            category="{dataset}",
+            subcategory="Embedding framework",
+        ),
+        md=f"{EMBEDDING}/tables/{{table}}.md",
+        tex=f"{EMBEDDING}/tables/{{table}}.tex",
+    log:
+        f"{RESULTS}/logs/{{dataset}}/embedding/table_{{table}}.log",
+    benchmark:
+        f"{RESULTS}/benchmarks/{{dataset}}/embedding/table_{{table}}.tsv"
+    params:
+        job=job_params(
+            experiments=lambda w: experiments_of(
+                config, w.dataset, METHODS, "embedding"
+            ),
+            sweeps=lambda w: sweep_table_spec(
+                config, config["datasets"][w.dataset]["variants"]["n"]
+            ),
+            notes=[],
+        ),
+        files=job_files,
+
+
+use rule curves as embedding_curves with:
+    input:
+        metrics=lambda w: probe_runs_files(
+            w.dataset,
+            set(
+                experiments_of(config, w.dataset, METHODS, "embedding")["budget"][
+                    "methods"
+                ]
+            ),
+        ),
+    output:
+        png=report(
+            f"{EMBEDDING}/figures/curves.png",
+            caption="../report/curves.rst",
+            category="{dataset}",
+            subcategory="Embedding framework",
+        ),
+        pdf=f"{EMBEDDING}/figures/curves.pdf",
+    log:
+        f"{RESULTS}/logs/{{dataset}}/embedding/curves.log",
+    benchmark:
+        f"{RESULTS}/benchmarks/{{dataset}}/embedding/curves.tsv"
+    params:
+        job=job_params(
+            methods=lambda w: experiments_of(config, w.dataset, METHODS, "embedding")[
+                "budget"
+            ]["methods"],
+            levels=False,
+            families=lambda w: budget_families(
+                config, w.dataset, METHODS, "embedding"
+            ),
+        ),
+        files=job_files,
+
+
+use rule embedding_curves as embedding_level_curves with:
+    output:
+        png=report(
+            f"{EMBEDDING}/figures/level_curves.png",
+            caption="../report/level_curves.rst",
+            category="{dataset}",
+            subcategory="Embedding framework",
+        ),
+        pdf=f"{EMBEDDING}/figures/level_curves.pdf",
+    log:
+        f"{RESULTS}/logs/{{dataset}}/embedding/level_curves.log",
+    benchmark:
+        f"{RESULTS}/benchmarks/{{dataset}}/embedding/level_curves.tsv"
+    params:
+        job=job_params(
+            methods=lambda w: experiments_of(config, w.dataset, METHODS, "embedding")[
+                "budget"
+            ]["methods"],
+            levels=True,
+            families=lambda w: budget_families(
+                config, w.dataset, METHODS, "embedding"
+            ),
+        ),
+        files=job_files,
+
+
+use rule summary as embedding_summary with:
+    input:
+        metrics=lambda w: probe_runs_files(w.dataset),
+    output:
+        report(
+            f"{EMBEDDING}/tables/summary.json",
+            caption="../report/summary.rst",
+            category="{dataset}",
+            subcategory="Embedding framework",
+        ),
+    log:
+        f"{RESULTS}/logs/{{dataset}}/embedding/summary.log",
+    benchmark:
+        f"{RESULTS}/benchmarks/{{dataset}}/embedding/summary.tsv"
+    params:
+        job=job_params(
+            notes=lambda w: [] if has_levels(w.dataset) else [NO_LEVELS_NOTE],
+            families=lambda w: budget_families(
+                config, w.dataset, METHODS, "embedding"
+            ),
+        ),
+        files=job_files,
+
+
+use rule stats as embedding_stats with:
+    input:
+        metrics=lambda w: probe_runs_files(w.dataset),
+    output:
+        comparisons_csv=report(
+            f"{EMBEDDING}/tables/comparisons.csv",
+            caption="../report/comparisons.rst",
+            category="{dataset}",
+            subcategory="Embedding framework",
+        ),
+        comparisons_md=f"{EMBEDDING}/tables/comparisons.md",
+        claims_csv=report(
+            f"{EMBEDDING}/tables/claims.csv",
+            caption="../report/claims.rst",
+            category="{dataset}",
+            subcategory="Embedding framework",
+        ),
+        claims_md=f"{EMBEDDING}/tables/claims.md",
+        decomposition_csv=report(
+            f"{EMBEDDING}/tables/decomposition.csv",
+            caption="../report/decomposition.rst",
+            category="{dataset}",
+            subcategory="Embedding framework",
+        ),
+        decomposition_md=f"{EMBEDDING}/tables/decomposition.md",
+        aubc_png=report(
+            f"{EMBEDDING}/figures/aubc.png",
+            caption="../report/aubc.rst",
+            category="{dataset}",
+            subcategory="Embedding framework",
+        ),
+        aubc_pdf=f"{EMBEDDING}/figures/aubc.pdf",
+    log:
+        f"{RESULTS}/logs/{{dataset}}/embedding/stats.log",
+    benchmark:
+        f"{RESULTS}/benchmarks/{{dataset}}/embedding/stats.tsv"
+    params:
+        job=job_params(
+            experiments=lambda w: experiments_of(
+                config, w.dataset, METHODS, "embedding"
+            ),
+            sweeps=lambda w: sweep_table_spec(
+                config, config["datasets"][w.dataset]["variants"]["n"]
+            ),
+        ),
+        files=job_files,

@@ -1,0 +1,22 @@
+from spl_al.experiment.warm import run_job
+
+run_job(
+    snakemake.log[0],
+    "spl_al.experiment.embedding_steps:probe_runs",
+    dict(
+        dataset_path=snakemake.input.data,
+        embeddings_path=snakemake.input.embeddings,
+        card_path=snakemake.input.card,
+        dataset=snakemake.wildcards.dataset,
+        method_name=snakemake.wildcards.method,
+        method=snakemake.params.method,
+        variants=snakemake.params.variants,
+        al=snakemake.params.al,
+        seeds=snakemake.params.seeds,
+        rounds=snakemake.params.rounds,
+        probe=snakemake.params.probe,
+        out_path=snakemake.output[0],
+    ),
+    preload=("spl_al.data", "spl_al.linear_probe", "spl_al.strategies"),
+    pass_log=True,
+)
