@@ -41,9 +41,9 @@ def probe_scores(
 ) -> float:
     """Validation accuracy of the linear probe fitted on ``labeled`` (sample indices);
     ``embeddings``: (N, G, d) of every sample's images."""
-    from spl_al.linear_probe import LinearProbe
-
     from threadpoolctl import threadpool_limits
+
+    from spl_al.linear_probe import LinearProbe
 
     g = embeddings.shape[1] if variants else 1
     x = embeddings[labeled, :g].reshape(-1, embeddings.shape[-1])
