@@ -362,3 +362,48 @@ def test_the_plan_names_source_shape_methods_seeds_rounds_and_budgets():
     config, user = merged({"only_datasets": ["real_cls"]})
     inherited = select_datasets(config, user)
     assert "synthesis.image_shape=[64, 64]" in plan_text(config, inherited)
+
+
+def test_the_default_run_decides_in_the_embedding_framework_at_100_seeds():
+    from spl_al.experiment.overview import plan_text
+    from spl_al.experiment.plan import budget_families, dataset_runs
+
+    config = _merged()
+    for dataset in ("real_cls", "synth_cls"):
+        runs = dataset_runs(config, dataset, "embedding")
+        assert {seed for _m, seed in runs} == set(range(1, 101))
+        families = budget_families(config, dataset, framework="embedding")
+        for low in ("typiclust", "probcover", "maxherding"):
+            assert low in families["paper"] and f"syn_{low}" in families["matched"]
+        # the supervised framework keeps its 3 seeds
+        assert {seed for _m, seed in dataset_runs(config, dataset)} == {1, 2, 3}
+    assert "embedding framework" in plan_text(config) and "seeds 1-100 (100)" in plan_text(config)
+
+
+@pytest.mark.parametrize(
+    ("change", "key", "message"),
+    [
+        ({"encoder": {"stpes": 3}}, "datasets.real_cls.embedding.encoder", "stpes"),
+        (
+            {"probe": {"c": 0}},
+            "datasets.real_cls.embedding.probe.c",
+            "less than or equal to the minimum of 0",
+        ),
+        ({"experiments": {"budget": {"framework": "x"}}}, "budget", "framework"),
+    ],
+)
+def test_a_bad_embedding_block_names_its_key(change, key, message):
+    config = _merged()
+    update_config(config["datasets"]["real_cls"]["embedding"], change)
+    schema = Path(__file__).resolve().parents[1] / "config" / "schema.yaml"
+    with pytest.raises(ValueError, match=message) as err:
+        check_config(config, schema)
+    assert key in str(err.value)
+
+
+def test_features_embedding_is_refused_for_a_strategy_that_reads_the_model():
+    config = _merged()
+    config["methods"]["margin_ssl"] = {"strategy": "margin", "features": "embedding"}
+    config["datasets"]["real_cls"]["experiments"]["budget"]["methods"].append("margin_ssl")
+    with pytest.raises(ValueError, match="'methods.margin_ssl.features'.*margin also needs"):
+        check_plan(config)

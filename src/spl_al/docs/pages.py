@@ -342,14 +342,16 @@ def aubc_overview(results: Path, kept: dict[str, Column] | None = None) -> list[
     return lines
 
 
-def readme_block(results: Path, page: str = BLOCK, earlier: str | None = None) -> str:
+def readme_block(
+    results: Path, page: str = BLOCK, earlier: str | None = None, *, framework: str = "supervised"
+) -> str:
     """The README's compact results of a run (``page``): one AUBC table of every dataset
     (``aubc_overview``), then each dataset's verdicts; the per-round tables are on
     docs/{page}.md. ``earlier``: the block as it was, whose datasets the folder lacks
     are kept (``--keep-absent``)."""
     present = datasets(results)
     chunks = {d: c for d, c in readme_chunks(earlier or "").items() if d not in present}
-    lines = [_generated_by(page, kept=list(chunks), on_page=False), ""]
+    lines = [_generated_by(page, kept=list(chunks), on_page=False, framework=framework), ""]
     parts: dict[str, list[str]] = {name: [chunk, ""] for name, chunk in chunks.items()}
     kept = {d: c for d, c in overview_columns(earlier or "").items() if d not in present}
     lines += ["**Area under the budget curve over the query rounds** (%) [95% CI]:", ""]
@@ -465,11 +467,14 @@ def copy_figures(
     return copied
 
 
-def _generated_by(page: str, *, kept: list[str], on_page: bool, stamp: str = "") -> str:
+def _generated_by(
+    page: str, *, kept: list[str], on_page: bool, stamp: str = "", framework: str = "supervised"
+) -> str:
     """The comment line that opens a generated block (``on_page``: a docs page's, whose
     text outside the markers is hand-written): the command that wrote it and, with
     ``--keep-absent``, the datasets kept from the block before."""
     option = ("" if page == BLOCK else f" --page {page}") + (" --keep-absent" if kept else "")
+    option += "" if framework == "supervised" else f" --framework {framework}"
     if kept:
         stamp = f"{stamp[:-1]}; " if stamp else " ("
         stamp += f"{', '.join(_in_order(kept))} kept from an earlier run)"
@@ -486,6 +491,7 @@ def results_block(
     figures_dir: str = "figures",
     page: str = BLOCK,
     earlier: str | None = None,
+    framework: str = "supervised",
 ) -> str:
     """docs/{page}.md's generated part: every dataset's tables, verdicts and figures.
     ``earlier``: the block as it was, whose datasets the folder lacks keep their
@@ -532,7 +538,10 @@ def results_block(
             lines += [f"### {dataset}: paired comparisons", "", *comparisons, ""]
             if robustness:
                 lines += [*robustness, ""]
-    lines = [_generated_by(page, kept=list(kept), on_page=True, stamp=stamp), ""]
+    lines = [
+        _generated_by(page, kept=list(kept), on_page=True, stamp=stamp, framework=framework),
+        "",
+    ]
     for dataset in _in_order(sections):
         lines += sections[dataset]
     return "\n".join(lines).rstrip()
@@ -604,7 +613,9 @@ def update(
 
     with tempfile.TemporaryDirectory() as tmp:
         view = framework_view(results, Path(tmp) / Path(results).name)
-        return update_pages(view, docs, readme, page=page, keep_absent=keep_absent)
+        return update_pages(
+            view, docs, readme, page=page, keep_absent=keep_absent, framework=framework
+        )
 
 
 def update_pages(
@@ -614,6 +625,7 @@ def update_pages(
     *,
     page: str = BLOCK,
     keep_absent: bool = False,
+    framework: str = "supervised",
 ) -> list[Path]:
     """Copy the figures, rewrite docs/{page}.md's generated block and the README's block
     named ``page`` (the README is left alone when it has no such block, unless ``page``
@@ -635,14 +647,14 @@ def update_pages(
     }
     text = path.read_text() if path.exists() else DEFAULT_RESULTS_PAGE
     earlier = block(text, BLOCK) if keep_absent else None
-    body = results_block(results, names, page=page, earlier=earlier)
+    body = results_block(results, names, page=page, earlier=earlier, framework=framework)
     writes = [(path, replace_block(text, BLOCK, body))]
     if readme.exists():
         text = readme.read_text()
         start = markers(page)[0]
         if page == BLOCK or any(line.strip() == start for line in text.split("\n")):
             earlier = block(text, page) if keep_absent else None
-            body = readme_block(results, page, earlier)
+            body = readme_block(results, page, earlier, framework=framework)
             writes.append((readme, replace_block(text, page, body)))
     copy_figures(results, docs / "figures", page)
     for target, content in writes:
