@@ -405,5 +405,5 @@ def test_features_embedding_is_refused_for_a_strategy_that_reads_the_model():
     config = _merged()
     config["methods"]["margin_ssl"] = {"strategy": "margin", "features": "embedding"}
     config["datasets"]["real_cls"]["experiments"]["budget"]["methods"].append("margin_ssl")
-    with pytest.raises(ValueError, match="'methods.margin_ssl.features'.*margin also needs"):
+    with pytest.raises(ValueError, match=r"'methods\.margin_ssl\.features'.*margin also needs"):
         check_plan(config)
