@@ -188,3 +188,19 @@ def test_a_table_refuses_two_frameworks(tmp_path):
     b.write_text(json.dumps({**base, "round": 1}))
     with pytest.raises(ValueError, match="mixes rounds of different frameworks"):
         load_records([a, b])
+
+
+def test_the_probe_bench_encoder_reads_no_validation_image(tmp_path):
+    """bench probe tunes on the validation split: its encoder learns from the fit part
+    alone, so other validation images leave the fit part's embeddings as they were."""
+    from spl_al.bench.learnability import tuning_split
+    from spl_al.bench.probe import encode_fit_part
+
+    _, data = _dataset(tmp_path)
+    fit_idx, val_idx = tuning_split(data)
+    quiet = {"log": lambda _line: None}
+    first, _ = encode_fit_part(data, fit_idx, ENCODER, **quiet)
+    data.depth_m[val_idx] += 2.0
+    second, _ = encode_fit_part(data, fit_idx, ENCODER, **quiet)
+    np.testing.assert_array_equal(first[fit_idx], second[fit_idx])
+    assert not np.array_equal(first[val_idx, 0], second[val_idx, 0])
