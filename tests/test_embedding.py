@@ -170,6 +170,10 @@ def test_probe_runs_write_records_the_report_reads(tmp_path):
     assert sorted(first["pool_indices"]) == initial_labeled_set(N_TRAIN, 6, 1).tolist()
     with pytest.raises(ValueError, match="trained with dataset 'toy'"):
         probe_runs(path, out["embeddings"], out["card"], **{**kwargs, "dataset": "other"})
+    # N_cand over half the unlabeled pool: the supervised query's sentence, naming the run
+    big = {**method, "params": {"n_cand": 12}}
+    with pytest.raises(ValueError, match=r"toy/duis seed 1.*makes round 1.*n_cand"):
+        probe_runs(path, out["embeddings"], out["card"], **{**kwargs, "method": big})
 
 
 def test_a_table_refuses_two_frameworks(tmp_path):
@@ -204,3 +208,15 @@ def test_the_probe_bench_encoder_reads_no_validation_image(tmp_path):
     second, _ = encode_fit_part(data, fit_idx, ENCODER, **quiet)
     np.testing.assert_array_equal(first[fit_idx], second[fit_idx])
     assert not np.array_equal(first[val_idx, 0], second[val_idx, 0])
+
+
+def test_dense_embeddings_give_every_pixel_each_stage_of_the_encoder(tmp_path):
+    from spl_al.bench.probe import dense_embeddings
+    from spl_al.training.contrastive import Encoder
+
+    _, data = _dataset(tmp_path)
+    encoder = Encoder(EncoderConfig.from_dict(ENCODER)).eval()
+    dense = dense_embeddings(encoder, data.depth_m[:5], data.valid[:5])
+    h, w = data.depth_m.shape[1:]
+    assert dense.shape == (5, h, w, 4 + 8 + 16 + 32)  # width 4, four stages
+    assert np.isfinite(dense).all()

@@ -114,11 +114,110 @@ def compare(dataset, entry: dict, *, seeds=SEEDS, c_values=C_VALUES, cnn=True, l
     return rows, record
 
 
+def dense_embeddings(encoder, depth_m, valid, *, batch_size: int = 64) -> np.ndarray:
+    """(n, H, W, c) per-pixel features of a frozen encoder: the last feature map of each
+    of its SmallCNN's stages, bilinearly upsampled to the image and concatenated (fp32)."""
+    import torch
+    import torch.nn.functional as F
+
+    from spl_al.models import model_input
+
+    body = encoder.backbone.body
+    out = []
+    with torch.no_grad():
+        for s in range(0, len(depth_m), batch_size):
+            x = model_input(encoder, depth_m[s : s + batch_size], valid[s : s + batch_size])
+            h, w = x.shape[2:]
+            stages: dict[int, torch.Tensor] = {}
+            for layer in body:
+                x = layer(x)
+                if isinstance(layer, torch.nn.ReLU):
+                    stages[x.shape[1]] = x  # the last activation of each width
+            maps = [F.interpolate(m, size=(h, w), mode="bilinear") for m in stages.values()]
+            out.append(torch.cat(maps, 1).permute(0, 2, 3, 1).numpy())
+    return np.concatenate(out)
+
+
+def segmentation_probe(dataset, labeled, held_out, *, dense, seed: int) -> float:
+    """Validation mIoU of a per-pixel logistic regression on a pixel's local depth
+    features (``learnability._pixel_features``) and the frozen encoder's ``dense``
+    features (n, H, W, c) of every sample, fitted on the ``labeled`` samples' pixels."""
+    from sklearn.linear_model import LogisticRegression
+    from sklearn.preprocessing import StandardScaler
+    from threadpoolctl import threadpool_limits
+
+    from spl_al.bench.learnability import _pixel_features
+    from spl_al.training.metrics import confusion_per_image, segmentation_summary
+
+    def features(idx):
+        local = _pixel_features(dataset.depth_m[idx], dataset.valid[idx])
+        return np.concatenate([local, dense[idx]], axis=-1)
+
+    f_tr = features(labeled)
+    keep = dataset.valid[labeled] & (dataset.labels[labeled] != 255)
+    x_tr, y_tr = f_tr[keep], dataset.labels[labeled][keep]
+    rng = np.random.default_rng(seed)
+    if len(y_tr) > 60_000:  # as the linear reference subsamples
+        pick = rng.choice(len(y_tr), 60_000, replace=False)
+        x_tr, y_tr = x_tr[pick], y_tr[pick]
+    with threadpool_limits(limits=1):
+        scaler = StandardScaler().fit(x_tr)
+        clf = LogisticRegression(max_iter=500, tol=1e-3).fit(scaler.transform(x_tr), y_tr)
+    f_val = features(np.asarray(held_out))
+    pred = clf.predict(scaler.transform(f_val.reshape(-1, f_val.shape[-1])))
+    target = np.where(dataset.valid[held_out], dataset.labels[held_out], 255)
+    conf = confusion_per_image(pred.reshape(f_val.shape[:3]), target, len(dataset.classes))
+    return float(segmentation_summary(conf.sum(0), dataset.classes)["miou"])
+
+
+def compare_segmentation(dataset, entry: dict, *, seeds=SEEDS, log=print):
+    """One row per budget of a segmentation entry: the U-Net (the config's recipe), the
+    per-pixel linear reference on local depth features alone, and the same with a
+    frozen encoder's dense features (``embedding.encoder``, trained on the fit part)."""
+    from spl_al.bench.learnability import learner_score, linear_reference, tuning_split
+    from spl_al.experiment.plan import labeled_at
+    from spl_al.pool import initial_labeled_set
+    from spl_al.training.contrastive import EncoderConfig, train_encoder
+
+    fit_idx, held_out = tuning_split(dataset)
+    cfg = EncoderConfig.from_dict((entry.get("embedding") or {}).get("encoder"))
+    depth, valid = dataset.groups(fit_idx)
+    encoder, record = train_encoder(depth, valid, cfg=cfg, log=_Quiet())
+    dense = dense_embeddings(encoder, dataset.depth_m, dataset.valid)
+    log(f"  encoder: {record['train_seconds']:.0f} s; dense features {dense.shape[-1]}")
+    rounds = entry["experiments"]["budget"]["rounds"]
+    rows = []
+    for r in range(rounds):
+        n = labeled_at(entry["al"], r)
+        row = {"n": n, "unet": [], "pixel_linear": [], "pixel_linear_encoder": []}
+        for seed in seeds:
+            labeled = fit_idx[initial_labeled_set(len(fit_idx), n, seed)]
+            row["pixel_linear"].append(linear_reference(dataset, labeled, held_out, seed))
+            row["pixel_linear_encoder"].append(
+                segmentation_probe(dataset, labeled, held_out, dense=dense, seed=seed)
+            )
+            recipe = {"model_cfg": entry["train"]["model"], "fit_cfg": entry["train"]["fit"]}
+            row["unet"].append(
+                learner_score(dataset, labeled, held_out, **recipe, seed=seed, variants=False)
+            )
+        log(f"  n={n}: " + ", ".join(f"{k} {np.mean(v):.3f}" for k, v in row.items() if k != "n"))
+        rows.append(row)
+    return rows, record
+
+
+class _Quiet:
+    def write(self, _text: str) -> None:
+        pass
+
+    def flush(self) -> None:
+        pass
+
+
 def _cell(values) -> str:
     return f"{100 * np.mean(values):.1f} ± {100 * np.std(values):.1f}" if values else "-"
 
 
-def render(name: str, rows: list[dict], n_pool: int) -> str:
+def render(name: str, rows: list[dict], n_pool: int, metric: str = "accuracy") -> str:
     """Markdown: one row per budget, one column per learner."""
     keys = [k for k in rows[0] if k != "n" and rows[0][k]]
     header = ["labeled", *(k.replace("_", " ") for k in keys)]
@@ -126,7 +225,7 @@ def render(name: str, rows: list[dict], n_pool: int) -> str:
         [f"{r['n']} ({100 * r['n'] / n_pool:.1f}%)", *(_cell(r[k]) for k in keys)] for r in rows
     ]
     return (
-        f"**{name}: validation accuracy (%), mean ± std over labeled sets**\n\n"
+        f"**{name}: validation {metric} (%), mean ± std over labeled sets**\n\n"
         + markdown_table(header, body)
     )
 
@@ -149,7 +248,13 @@ def main(argv: list[str] | None = None) -> int:
     from spl_al.data import Dataset
 
     config = yaml.safe_load(args.config.read_text())
-    entries = {k: v for k, v in config["datasets"].items() if v.get("embedding")}
+    # classification entries with an embedding framework; a segmentation one named with
+    # --only is compared per pixel (an encoder with the default recipe unless it sets one)
+    entries = {
+        k: v
+        for k, v in config["datasets"].items()
+        if v.get("embedding") or v.get("task") == "segmentation"
+    }
     with tempfile.TemporaryDirectory() as tmp:
         if args.datasets:
             # each file is read with the config entry --only names (else its file name)
@@ -158,7 +263,7 @@ def main(argv: list[str] | None = None) -> int:
                 (n, Dataset.load(p), entries[n]) for n, p in zip(names, args.datasets, strict=True)
             ]
         else:
-            names = args.only or list(entries)
+            names = args.only or [k for k, v in entries.items() if v.get("embedding")]
             cache = Path(tmp)
             named = [
                 (n, d, entries[n]) for n, d, _m, _f in default_datasets(args.config, names, cache)
@@ -166,8 +271,14 @@ def main(argv: list[str] | None = None) -> int:
         for name, data, entry in named:
             started = time.perf_counter()
             print(f"{name}:")
-            rows, _ = compare(data, entry, seeds=args.seeds, c_values=args.c, cnn=not args.no_cnn)
+            if data.task == "segmentation":
+                rows, _ = compare_segmentation(data, entry, seeds=args.seeds)
+            else:
+                rows, _ = compare(
+                    data, entry, seeds=args.seeds, c_values=args.c, cnn=not args.no_cnn
+                )
             print()
-            print(render(name, rows, len(data.train_idx)))
+            metric = "mIoU" if data.task == "segmentation" else "accuracy"
+            print(render(name, rows, len(data.train_idx), metric))
             print(f"\n({time.perf_counter() - started:.0f} s)\n")
     return 0
