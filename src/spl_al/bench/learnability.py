@@ -77,7 +77,7 @@ def _box_mean(a: np.ndarray, k: int) -> np.ndarray:
     return uniform_filter(a, size=(1, k, k), mode="nearest")
 
 
-def _pixel_features(depth_m, valid) -> np.ndarray:
+def pixel_features(depth_m, valid) -> np.ndarray:
     """(n, H, W, 9) local depth features of every pixel (voids filled with the 7x7
     mean of valid neighbours, else 0)."""
     d = np.where(valid, np.nan_to_num(depth_m, nan=0.0), 0.0).astype(np.float64)
@@ -110,7 +110,7 @@ def linear_reference(dataset, labeled: np.ndarray, held_out: np.ndarray, seed: i
         return float(np.mean(clf.predict(x_val) == dataset.labels[val]))
     from spl_al.training.metrics import confusion_per_image, segmentation_summary
 
-    f_tr = _pixel_features(dataset.depth_m[labeled], dataset.valid[labeled])
+    f_tr = pixel_features(dataset.depth_m[labeled], dataset.valid[labeled])
     keep = dataset.valid[labeled] & (dataset.labels[labeled] != 255)
     x_tr, y_tr = f_tr[keep], dataset.labels[labeled][keep]
     rng = np.random.default_rng(seed)
@@ -119,7 +119,7 @@ def linear_reference(dataset, labeled: np.ndarray, held_out: np.ndarray, seed: i
         x_tr, y_tr = x_tr[pick], y_tr[pick]
     scaler = StandardScaler().fit(x_tr)
     clf = LogisticRegression(max_iter=500).fit(scaler.transform(x_tr), y_tr)
-    f_val = _pixel_features(dataset.depth_m[val], dataset.valid[val])
+    f_val = pixel_features(dataset.depth_m[val], dataset.valid[val])
     pred = clf.predict(scaler.transform(f_val.reshape(-1, f_val.shape[-1]))).reshape(
         f_val.shape[:3]
     )

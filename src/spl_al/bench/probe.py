@@ -140,17 +140,17 @@ def dense_embeddings(encoder, depth_m, valid, *, batch_size: int = 64) -> np.nda
 
 def segmentation_probe(dataset, labeled, held_out, *, dense, seed: int) -> float:
     """Validation mIoU of a per-pixel logistic regression on a pixel's local depth
-    features (``learnability._pixel_features``) and the frozen encoder's ``dense``
+    features (``learnability.pixel_features``) and the frozen encoder's ``dense``
     features (n, H, W, c) of every sample, fitted on the ``labeled`` samples' pixels."""
     from sklearn.linear_model import LogisticRegression
     from sklearn.preprocessing import StandardScaler
     from threadpoolctl import threadpool_limits
 
-    from spl_al.bench.learnability import _pixel_features
+    from spl_al.bench.learnability import pixel_features
     from spl_al.training.metrics import confusion_per_image, segmentation_summary
 
     def features(idx):
-        local = _pixel_features(dataset.depth_m[idx], dataset.valid[idx])
+        local = pixel_features(dataset.depth_m[idx], dataset.valid[idx])
         return np.concatenate([local, dense[idx]], axis=-1)
 
     f_tr = features(labeled)
