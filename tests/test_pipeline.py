@@ -366,6 +366,20 @@ CHANGES = {
         ["street_pc/random/seed1/round1/labeled.json"],
         ["*/round0/*", "*/initial/*", "*/data/*", "real_cls/*", "street_seg/*"],
     ),
+    "the embedding framework's seeds": (
+        "datasets: {real_cls: {embedding: {experiments: {budget: {seeds: [1, 2, 4]}}}}}",
+        ["real_cls/embedding/runs/random.json", "real_cls/embedding/tables/budget.csv"],
+        ["*/data/*", "*/initial/*", "real_cls/embedding/encoder.pt", "real_cls/random/*"],
+    ),
+    "the encoder's recipe": (
+        "datasets: {real_cls: {embedding: {encoder: {steps: 9}}}}",
+        [
+            "real_cls/embedding/encoder.pt",
+            "real_cls/embedding/runs/duis.json",
+            "real_cls/typiclust_ssl/seed1/round0/scores.npz",  # it selects on them
+        ],
+        ["*/data/*", "*/initial/*", "real_cls/random/*", "real_cls/duis/*", "street_*"],
+    ),
 }
 
 

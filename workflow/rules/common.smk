@@ -206,7 +206,7 @@ def n_shards(dataset):
 
 # The keys of a dataset entry its observed images do not depend on: the loop, the
 # training and its precision, the methods' parameters, the variants (their own
-# rules), the experiments and the job sizes.
+# rules), the experiments, the embedding framework and the job sizes.
 NOT_DATA = (
     "al",
     "train",
@@ -214,6 +214,7 @@ NOT_DATA = (
     "method_params",
     "variants",
     "experiments",
+    "embedding",
     "robustness",
     "resources",
 )
