@@ -88,7 +88,7 @@ def test_evaluate_grid_and_tables(observed, tmp_path):
     import torch
 
     from spl_al.data import Dataset
-    from spl_al.experiment.round_steps import model_for
+    from spl_al.models.configured import model_for
 
     shard = tmp_path / "grid.npz"
     make_grid_shard(observed, {**GRID, "shards": 1}, 0, shard)

@@ -144,8 +144,9 @@ def learner_score(
     """Accuracy (mIoU) on the observed images of samples ``held_out`` of the configured
     model trained on samples ``labeled`` (with their variants when ``variants``), as a
     pipeline round trains it."""
-    from spl_al.experiment.round_steps import model_for, train_groups
+    from spl_al.models.configured import model_for
     from spl_al.training import evaluate
+    from spl_al.training.groups import train_groups
 
     model, fit, _ = train_groups(
         dataset,

@@ -134,7 +134,7 @@ def pick_agreement(results: Path, dataset: str) -> list[list[str]]:
 
     from spl_al.data import Dataset
     from spl_al.experiment.plan import batch_of, dataset_method
-    from spl_al.experiment.round_steps import load_model
+    from spl_al.models.configured import load_model
     from spl_al.pool import read_labeled
     from spl_al.scoring import compute_inputs
     from spl_al.strategies import get

@@ -47,16 +47,16 @@ def sequence_scores(
 ) -> tuple[list[float], float]:
     """Validation scores (%) of one random-sampling sequence, and its seconds: every
     round trained cold, or (``warm``) rounds >= 1 fine-tuned with those fit fields."""
-    from spl_al.experiment.jobs import Compute
-    from spl_al.experiment.round_steps import model_for, train_groups
+    from spl_al.models.configured import model_for
     from spl_al.training import evaluate
+    from spl_al.training.groups import train_groups
 
     fit_idx, val_idx = tuning_split(data)
     order = np.random.default_rng(seed).permutation(fit_idx)
     model, scores, started = None, [], time.process_time()
     for r, n in enumerate(counts):
         labeled = order[:n]
-        fit = {**fit_cfg, "log_every": 0}
+        fit = {**fit_cfg, "log_every": 0, "num_threads": 1}
         if warm is not None and r > 0:
             fit = {**fit, **warm, "from_scratch": False}
         else:
@@ -69,7 +69,6 @@ def sequence_scores(
             fit=fit,
             n_variants=data.n_variants if variants else 0,
             seed=1000 * seed + r,
-            compute=Compute(threads=1),
             log=io.StringIO(),
         )
         metrics = evaluate(

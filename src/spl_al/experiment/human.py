@@ -63,7 +63,7 @@ def _asked(record: dict) -> list[int]:
 def batch_probabilities(dataset, pool_indices, model_path, model_cfg: dict) -> np.ndarray:
     """The probabilities a saved model gives the observed images of training-pool groups
     ``pool_indices``: (n, C), or (n, C, H, W) for segmentation. Images only, no labels."""
-    from spl_al.experiment.round_steps import load_model
+    from spl_al.models.configured import load_model
     from spl_al.training.predict import predict
 
     model = load_model(dataset, model_cfg, model_path)

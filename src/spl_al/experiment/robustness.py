@@ -202,10 +202,9 @@ def evaluate_grid(
     ``evaluate``) on ``compute``'s device at ``MEASURE_PRECISION`` (fp32); one record per
     seed, with the precision its model was trained at.
     """
-    import torch
-
     from spl_al.data import SCENE_FIELDS, Dataset
-    from spl_al.experiment.round_steps import model_for, resolved_for
+    from spl_al.experiment.round_steps import resolved_for
+    from spl_al.models.configured import load_model
     from spl_al.training import MEASURE_PRECISION, evaluate
 
     model_paths = [model_paths] if isinstance(model_paths, str | Path) else list(model_paths)
@@ -227,8 +226,7 @@ def evaluate_grid(
     records = []
     for seed, model_path in zip(seeds, model_paths, strict=True):
         started = time.perf_counter()
-        model = model_for(dataset, model_cfg)
-        model.load_state_dict(torch.load(model_path, map_location="cpu", weights_only=True))
+        model = load_model(dataset, model_cfg, model_path)  # (evaluate runs it in eval mode)
         metrics = evaluate(
             model,
             depth,

@@ -73,45 +73,6 @@ def resolved_for(compute: Compute, dataset, model_cfg: dict) -> Compute:
     return compute.resolved(model_class(dataset.task, model_cfg.get("arch")))
 
 
-def model_for(dataset, model_cfg: dict):
-    """The configured model (``model_cfg``: arch and its parameters) for ``dataset``;
-    an architecture that needs the scan grid (PointNet++) gets ``dataset.grid()``."""
-    from spl_al.models import build_model, needs_grid
-
-    cfg = dict(model_cfg)
-    arch = cfg.pop("arch", None)
-    if needs_grid(dataset.task, arch):
-        cfg["grid"] = dataset.grid()
-    return build_model(dataset.task, len(dataset.classes), arch=arch, **cfg)
-
-
-def load_model(dataset, model_cfg: dict, weights):
-    """``model_for`` with the saved ``weights`` loaded, in eval mode."""
-    import torch
-
-    model = model_for(dataset, model_cfg)
-    model.load_state_dict(torch.load(weights, map_location="cpu", weights_only=True))
-    return model.eval()
-
-
-def save_model(model, path) -> None:
-    """Save the model's weights (state dict) atomically, the same weights to the same bytes.
-
-    torch.save names the archive's inner folder after a path it is given, which here
-    would be the random temporary name: saving through a file object keeps it fixed,
-    so a model card's sha256 identifies the weights across reruns.
-    """
-    import torch
-
-    state = model.state_dict()
-
-    def write(tmp):
-        with open(tmp, "wb") as f:
-            torch.save(state, f)
-
-    atomic_write(path, write)
-
-
 @dataclass
 class Fit:
     """A trained model and what its round records of it."""
@@ -131,45 +92,6 @@ class Fit:
             for k, v in (("train_steps", self.train_steps), ("images_seen", self.images_seen))
             if v is not None
         }
-
-
-def train_groups(
-    dataset,
-    samples,
-    *,
-    given,
-    model,
-    fit: dict,
-    n_variants: int,
-    seed: int,
-    compute: Compute = LOCAL,
-    log=None,
-):
-    """Train ``model`` on the groups of dataset samples ``samples`` as a round trains:
-    each group's observed image and first ``n_variants`` variants, all with the group's
-    label or mask (``given``, one per sample). ``fit``: TrainConfig fields, with
-    ``compute``'s threads and precision. Returns (the model, its TrainConfig, the
-    number of training images)."""
-    from spl_al.training import TrainConfig, train
-
-    cfg = TrainConfig.from_dict(
-        {**fit, "num_threads": compute.threads, "precision": compute.precision}
-    )
-    depth, valid = dataset.groups(samples, n_variants=n_variants)
-    targets = np.repeat(given, depth.shape[1], axis=0)
-    images = depth.reshape(-1, *depth.shape[2:])
-    model = train(
-        model,
-        images,
-        valid.reshape(images.shape),
-        targets,
-        cfg=cfg,
-        seed=seed,
-        device=compute.device,
-        log=log,
-        groups=len(samples),
-    )
-    return model, cfg, int(images.shape[0])
 
 
 def fit_and_evaluate(
@@ -195,7 +117,9 @@ def fit_and_evaluate(
     starts from them with ``fit`` updated by ``train_setup["warm_start"]`` (fewer
     steps), else from fresh weights.
     """
+    from spl_al.models.configured import load_model, model_for
     from spl_al.training import MEASURE_PRECISION, evaluate
+    from spl_al.training.groups import train_groups
 
     started = time.perf_counter()
     model = (
@@ -211,10 +135,10 @@ def fit_and_evaluate(
         dataset.train_idx[pool_idx],
         given=given,
         model=model,
-        fit=fit,
+        fit={**fit, "num_threads": compute.threads, "precision": compute.precision},
         n_variants=n_variants,
         seed=step_seed(seed, round_, TRAIN_STREAM),
-        compute=compute,
+        device=compute.device,
         log=log,
     )
     train_seconds = time.perf_counter() - started
@@ -294,6 +218,7 @@ def train_initial(
     ``n_variants`` variants.
     """
     from spl_al.data import SCENE_FIELDS, Dataset
+    from spl_al.models.configured import save_model
 
     compute.apply()
     dataset = Dataset.load(dataset_path, skip=SCENE_FIELDS)
@@ -502,6 +427,7 @@ def train_round(
             return record
 
     from spl_al.data import SCENE_FIELDS, Dataset
+    from spl_al.models.configured import save_model
     from spl_al.strategies import StrategyInputs
 
     compute.apply()
@@ -576,6 +502,8 @@ def _round_model(dataset, pool_idx, *, setup, method, which, compute, log, start
     """The round's model: round 0's shared fit loaded (``start.initial``), else one
     trained on the labels of ``pool_idx`` (the dataset's, or a person's from
     ``start.labels_path``), from fresh weights or from ``start.previous_model``'s."""
+    from spl_al.models.configured import load_model
+
     m = method.train_variants(dataset.n_variants)
     initial = start.initial
     if initial is not None:
@@ -651,6 +579,7 @@ def score_round(
 ) -> dict:
     """``score_pool`` for a saved model: rescore a round without retraining."""
     from spl_al.data import SCENE_FIELDS, Dataset
+    from spl_al.models.configured import load_model
 
     compute.apply()
     dataset = Dataset.load(dataset_path, skip=SCENE_FIELDS)
