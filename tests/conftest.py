@@ -10,7 +10,7 @@ from photon_scenes import disc_scene
 
 from spl_al.bench.estimate import ESTIMATE_ENV
 from spl_al.config import REAL_CAPTURES_ENV
-from spl_al.experiment.warm import SOCKET_ENV, Server
+from spl_al.warm.server import SOCKET_ENV, Server
 
 # The test runs' plans leave out the time estimate: it times every model first.
 os.environ.setdefault(ESTIMATE_ENV, "0")
@@ -30,7 +30,7 @@ def pytest_configure(config):
 def warm_server(tmp_path_factory):
     """One warm job server for this test process's Snakemake runs, named in the
     environment they inherit: each run uses it (same library, see
-    ``spl_al.experiment.warm.shared_server``) instead of starting its own, whose
+    ``spl_al.warm.server.shared_server``) instead of starting its own, whose
     imports cost ~7 CPU-s on a 2-core AVX2 CPU. Runs with another PYTHONPATH, on a
     cluster profile or with ``warm_worker: false`` still do without it."""
     previous = os.environ.pop(SOCKET_ENV, None)

@@ -23,7 +23,7 @@ import pandas as pd
 import pytest
 from snakemake_cli import CI_CONFIG, SNAKEMAKE
 
-from spl_al.experiment.warm_client import SOCKET_ENV
+from spl_al.warm.client import SOCKET_ENV
 
 ROOT = Path(__file__).resolve().parents[1]
 pytestmark = [

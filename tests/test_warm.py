@@ -12,7 +12,7 @@ from pathlib import Path
 
 import pytest
 
-from spl_al.experiment.warm import SOCKET_ENV, Server, plain, run_job, shared_server
+from spl_al.warm.server import SOCKET_ENV, Server, plain, run_job, shared_server
 
 JOBS = textwrap.dedent(
     """
@@ -48,7 +48,7 @@ JOBS = textwrap.dedent(
 CLIENT = textwrap.dedent(
     """
     import sys
-    from spl_al.experiment.warm import run_job
+    from spl_al.warm.server import run_job
     run_job(sys.argv[1], "jobs:" + sys.argv[2], eval(sys.argv[3]), show=True)
     """
 )
@@ -171,7 +171,7 @@ def test_a_server_importing_something_else_is_not_shared(server, folder, monkeyp
 
 def test_a_standalone_server_stops_on_sigterm_and_removes_its_socket(folder):
     address = folder / "socket"
-    code = f"from spl_al.experiment.warm import serve; serve({str(address)!r}, preload=())"
+    code = f"from spl_al.warm.server import serve; serve({str(address)!r}, preload=())"
     proc = subprocess.Popen([sys.executable, "-c", code])
     deadline = time.monotonic() + 30
     while not shared_server(str(address)):
@@ -198,7 +198,7 @@ def test_run_job_in_process_passes_the_log(tmp_path, monkeypatch):
     monkeypatch.delenv(SOCKET_ENV, raising=False)
     seen = {}
     monkeypatch.setattr(
-        "spl_al.experiment.warm.resolve", lambda target: lambda log: seen.update(log=log)
+        "spl_al.warm.server.resolve", lambda target: lambda log: seen.update(log=log)
     )
     run_job(tmp_path / "job.log", "any:thing", {}, pass_log=True)
     assert seen["log"].name == str(Path(tmp_path / "job.log"))
@@ -228,11 +228,11 @@ SCRIPT = textwrap.dedent(
 
 
 def script_job(folder: Path, fail=False) -> list[str]:
-    """The command a rule runs for SCRIPT: python -S -P warm_client.py SCRIPT LOG THREADS
+    """The command a rule runs for SCRIPT: python -S -P client.py SCRIPT LOG THREADS
     FILES SETTINGS, with the files written from Snakemake's own named lists."""
     from snakemake.iocontainers import Namedlist
 
-    from spl_al.experiment import warm_client
+    from spl_al.warm import client as warm_client
 
     (folder / "script.py").write_text(SCRIPT)
     inputs = Namedlist(toclone=["data.npz", "s0.npz", "s1.npz"])
@@ -271,7 +271,7 @@ def test_a_script_run_by_the_warm_client_reads_its_job_as_snakemake_gives_it(
 
 
 def test_a_job_with_params_that_do_not_read_back_is_refused(tmp_path):
-    from spl_al.experiment import warm_client
+    from spl_al.warm import client as warm_client
 
     with pytest.raises(ValueError, match="plain values"):
         warm_client.job_settings({"path": tmp_path})

@@ -27,8 +27,8 @@ from spl_al.data.external import folder_has_levels
 from spl_al.photon.io import ReadOptions
 from spl_al.data.label_files import lists_training_rows
 from spl_al.deploy.export import NOT_EXPORTED
-from spl_al.experiment import warm_client
-from spl_al.experiment.warm import Server
+from spl_al.warm import client as warm_client
+from spl_al.warm.server import Server
 from spl_al.experiment.overview import jobs_line, plan_text
 from spl_al.experiment.provenance import (
     OLDER_RESULTS,
@@ -595,7 +595,7 @@ os.environ.update(
 
 def python_job(script):
     """The shell command that runs workflow/scripts/SCRIPT.py as a job. The warm
-    client (spl_al/experiment/warm_client.py, standard library only, so the job's own
+    client (spl_al/warm/client.py, standard library only, so the job's own
     process starts in ~0.03 CPU-s instead of the ~0.25 of Snakemake's `script:`)
     hands the script to the warm server, or runs it itself without one. The script
     reads its job from `snakemake` as usual; the rule's params must be

@@ -1,4 +1,4 @@
-# Warm job processes (spl_al.experiment.warm): for a local run, one server imports
+# Warm job processes (spl_al.warm.server): for a local run, one server imports
 # torch, numpy, scikit-learn and the library once, and every job's step runs in a child
 # forked from it, so a job starts in ~0.1 s instead of ~2 s. Jobs stay Snakemake jobs
 # (own log, benchmark, exit code); without the server they run in their own process.

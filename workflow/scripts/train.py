@@ -1,5 +1,5 @@
 from spl_al.experiment.jobs import Compute, ModelFiles, RoundId, RoundStart
-from spl_al.experiment.warm import run_job
+from spl_al.warm.server import run_job
 
 w = snakemake.wildcards
 # Round 0 of a simulated oracle copies the shared fit and scores: no torch to load.

@@ -1,5 +1,5 @@
 from spl_al.experiment.jobs import Compute, ModelFiles
-from spl_al.experiment.warm import run_job
+from spl_al.warm.server import run_job
 
 run_job(
     snakemake.log[0],

@@ -4,6 +4,7 @@
   (method, seed, rounds) runs each dataset's experiments need. Light: no torch.
 - ``data_steps``, ``round_steps``, ``report_steps``, ``deploy_steps``, ``human``: the
   functions the workflow's scripts call, one per rule.
-- ``warm`` and ``warm_client``: how a job runs (a child forked from one warm process,
-  started by a standard-library client), and ``joblog``: its log.
+- ``embedding_steps``: the embedding framework's encoder and runs.
+
+How a job runs (the warm server, its client and the job log) is ``spl_al.warm``.
 """

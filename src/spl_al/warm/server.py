@@ -21,7 +21,7 @@ The server is local by nature: the workflow starts it only for local execution (
 on a cluster, not with per-rule conda environments). POSIX only (fork, SCM_RIGHTS).
 
 One server can serve several runs: started on its own (``python -m
-spl_al.experiment.warm SOCKET``, until SIGTERM) with ``$SPL_AL_WARM_SOCKET`` naming its
+spl_al.warm.server SOCKET``, until SIGTERM) with ``$SPL_AL_WARM_SOCKET`` naming its
 socket, every run started from that shell uses it instead of importing everything again
 (~7 CPU-s on a 2-core AVX2 laptop), and leaves it running. A run uses it only when it
 would import the same library: same Python environment (``sys.prefix``), same
@@ -48,8 +48,7 @@ import time
 import traceback
 from pathlib import Path
 
-from spl_al.experiment.joblog import job_log
-from spl_al.experiment.warm_client import (
+from spl_al.warm.client import (
     CODE,
     LENGTH,
     SOCKET_ENV,
@@ -58,6 +57,7 @@ from spl_al.experiment.warm_client import (
     run_in_server,
     run_script,
 )
+from spl_al.warm.joblog import job_log
 
 FOLDER_PREFIX = "spl-al-warm-"
 """The name of the private folder ``Server.start`` makes for a server's socket."""
@@ -95,7 +95,7 @@ def resolve(target: str):
 
 def execute(request: dict) -> None:
     """Run one job in this process: a workflow script with its job's ``snakemake``
-    object (a request of ``warm_client``), or ``target(**kwargs)`` inside ``job_log``
+    object (a request of ``spl_al.warm.client``), or ``target(**kwargs)`` inside ``job_log``
     (its output to the log file, ``compute_seconds`` last), with the open log as
     ``log=`` when ``pass_log``, and its return value printed to the log when ``show``."""
     if "script" in request:
@@ -294,7 +294,7 @@ class Server:
                 [
                     sys.executable,
                     "-m",
-                    "spl_al.experiment.warm",
+                    "spl_al.warm.server",
                     str(folder / "socket"),
                     "--parent",
                     str(os.getpid()),
@@ -339,8 +339,8 @@ class Server:
 
 
 def main(argv: list[str] | None = None) -> None:
-    """Command line: ``python -m spl_al.experiment.warm SOCKET [--parent PID]``."""
-    parser = argparse.ArgumentParser(prog="python -m spl_al.experiment.warm")
+    """Command line: ``python -m spl_al.warm.server SOCKET [--parent PID]``."""
+    parser = argparse.ArgumentParser(prog="python -m spl_al.warm.server")
     parser.add_argument("address", help="Unix socket path to listen at")
     parser.add_argument("--parent", type=int, default=None, help="exit when this pid is gone")
     args = parser.parse_args(argv)

@@ -1,10 +1,10 @@
-"""The job side of the warm job server (``spl_al.experiment.warm``), standard library only.
+"""The job side of the warm job server (``spl_al.warm.server``), standard library only.
 
 A rule of the workflow runs its script through this file, not through Snakemake's
 ``script:`` directive, whose preamble imports Snakemake in every job's process
 (~0.25 CPU-s a job on a 2-core AVX2 CPU, a third of the test suite's CPU):
 
-    python -S -P .../spl_al/experiment/warm_client.py SCRIPT LOG THREADS FILES SETTINGS
+    python -S -P .../spl_al/warm/client.py SCRIPT LOG THREADS FILES SETTINGS
 
 ``FILES`` and ``SETTINGS`` hold what the script reads from its ``snakemake`` object: the
 job's ``input``, ``output`` and ``wildcards`` (``files_text``), and its ``params``
@@ -163,7 +163,7 @@ def run_in_server(address: str, request: dict) -> int | None:
 
 
 def main(argv: list[str] | None = None) -> None:
-    """Command line: ``warm_client.py SCRIPT LOG THREADS FILES SETTINGS`` (the module)."""
+    """Command line: ``client.py SCRIPT LOG THREADS FILES SETTINGS`` (the module)."""
     script, log, threads, files, settings = sys.argv[1:] if argv is None else argv
     request = {"script": script, "job": (files, settings, log, int(threads))}
     address = os.environ.get(SOCKET_ENV)
