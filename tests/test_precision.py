@@ -117,7 +117,7 @@ def test_the_run_config_records_the_precision_each_dataset_ran_at(tmp_path):
 
 
 def test_a_step_resolves_its_compute_once_into_a_device_and_a_concrete_precision():
-    from spl_al.experiment.jobs import Compute
+    from spl_al.experiment.step_args import Compute
     from spl_al.models.pointnet import PointNet2Seg
 
     cnn = Compute("cpu", 1, "auto").resolved(build_model("classification", 3, arch="smallcnn"))

@@ -1,4 +1,4 @@
-from spl_al.experiment.jobs import Compute, ModelFiles, RoundId, RoundStart
+from spl_al.experiment.step_args import Compute, ModelFiles, RoundId, RoundStart
 from spl_al.warm.server import run_job
 
 w = snakemake.wildcards

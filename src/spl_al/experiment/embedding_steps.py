@@ -24,9 +24,9 @@ from dataclasses import dataclass
 import numpy as np
 
 from spl_al.atomic import atomic_write, read_json, write_json
-from spl_al.experiment.jobs import LOCAL, Compute
 from spl_al.experiment.plan import MethodSpec, batch_of
 from spl_al.experiment.round_steps import QUERY_STREAM, step_seed
+from spl_al.experiment.step_args import LOCAL, Compute
 from spl_al.models.configured import save_model
 
 FRAMEWORK = "embedding"

@@ -150,7 +150,7 @@ def write_run_config(config: dict, out_path) -> dict:
     precision its models run at on the configured device (what ``precision: auto``
     resolved to here). Returns that mapping."""
     from spl_al.config import dataset_precision, write_config
-    from spl_al.experiment.jobs import Compute
+    from spl_al.experiment.step_args import Compute
     from spl_al.models import model_class
 
     used = {}

@@ -32,7 +32,7 @@ import numpy as np
 import pandas as pd
 
 from spl_al.atomic import read_json, write_json
-from spl_al.experiment.jobs import LOCAL, Compute
+from spl_al.experiment.step_args import LOCAL, Compute
 
 GRID_FORMAT = "spl-al-robustness-grid"
 _STREAM_GRID = 11

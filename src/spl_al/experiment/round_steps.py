@@ -14,8 +14,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from spl_al.atomic import atomic_write, read_json, write_json
-from spl_al.experiment.jobs import FRESH, LOCAL, Compute, ModelFiles, RoundId, RoundStart
 from spl_al.experiment.plan import MethodSpec
+from spl_al.experiment.step_args import FRESH, LOCAL, Compute, ModelFiles, RoundId, RoundStart
 from spl_al.pool import read_labeled
 
 # Streams of np.random.SeedSequence([seed, round, stream]): one per kind of draw.

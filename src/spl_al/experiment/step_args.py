@@ -1,5 +1,6 @@
-"""The small records a round step takes, importable without numpy or torch (the
-workflow's scripts build them in the job's own process before handing the step on)."""
+"""The small records a step takes (where its models run, which round, its files, what
+its model starts from), importable without numpy or torch: the workflow's scripts
+build them in the job's own process before handing the step on."""
 
 from __future__ import annotations
 
