@@ -11,7 +11,7 @@ from PIL import Image
 
 from spl_al.data import Dataset
 from spl_al.data.label_files import labels_for, save_labels
-from spl_al.data.unlabeled import load_unlabeled_folder
+from spl_al.data.unlabeled_folder import load_unlabeled_folder
 from spl_al.experiment.human import accept_labels
 from spl_al.label_codes import IGNORE_INDEX, UNKNOWN_CLASS
 from spl_al.labeling import read_label_file, write_batch

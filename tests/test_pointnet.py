@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 import torch
 
-from spl_al.data.synthetic import make_segmentation_dataset
+from spl_al.data.procedural import make_segmentation_dataset
 from spl_al.models import build_model, model_input, to_range_input, training_outputs
 from spl_al.models.configured import model_for
 from spl_al.models.pointnet import (

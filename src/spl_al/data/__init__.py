@@ -20,8 +20,8 @@ from spl_al.data.dataset import LEVELS, SCENE_FIELDS, Dataset
 from spl_al.data.external import load_folder
 from spl_al.data.observe import DEFAULT_LEVELS, DEFAULT_SBR, condition_set, observe
 from spl_al.data.pictures import contact_sheet, variants_sheet
-from spl_al.data.synthetic import make_classification_dataset, make_segmentation_dataset
-from spl_al.data.unlabeled import load_unlabeled_folder
+from spl_al.data.procedural import make_classification_dataset, make_segmentation_dataset
+from spl_al.data.unlabeled_folder import load_unlabeled_folder
 from spl_al.data.validation import validation_split
 
 __all__ = [

@@ -42,8 +42,8 @@ from pathlib import Path
 import numpy as np
 
 from spl_al.data.dataset import LEVELS, Dataset, sensor_to_dict
+from spl_al.data.procedural import stratified_split
 from spl_al.data.seeds import STREAM_SPLIT, STREAM_SUBSET, sample_rng
-from spl_al.data.synthetic import stratified_split
 from spl_al.label_codes import IGNORE_INDEX
 from spl_al.photon import SensorParams
 

@@ -6,13 +6,13 @@ row. Classification: ``label`` holds a class name. Segmentation: ``mask`` holds 
 path of a mask, relative to the label file's folder: an 8-bit greyscale PNG or a
 ``.npy`` of the image's shape, each pixel a class index (``classes.csv``) or 255 = no
 label. Rows whose ``split`` column says ``test`` are skipped (they label the test
-split of an unlabeled folder, see ``spl_al.data.unlabeled``); other columns are
+split of an unlabeled folder, see ``spl_al.data.unlabeled_folder``); other columns are
 ignored.
 
 - ``read_label_csv`` checks a filled CSV against the samples it must label (every
   problem a ValueError naming the file, its line and the value); ``listed_samples``
   and ``lists_training_rows`` say which samples a CSV has rows for; ``read_rows``,
-  ``class_index`` and ``read_mask`` are its parts, shared with ``data.unlabeled``.
+  ``class_index`` and ``read_mask`` are its parts, shared with ``data.unlabeled_folder``.
 - ``save_labels`` / ``load_labels`` / ``labels_for``: the labels a run has been given
   (``labels.npz``), the only labels its training ever sees.
 

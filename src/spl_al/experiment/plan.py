@@ -362,7 +362,7 @@ def train_pool_size(entry: dict) -> int | None:
     """Groups in the training split of a dataset entry when its config fixes them (a
     synthetic set, or a folder's synthetic stand-in), else None (a folder, captures,
     an unlabeled folder: knowable only by reading the data). Mirrors
-    ``spl_al.data.synthetic.stratified_split``: round(test_fraction * n_c) of each
+    ``spl_al.data.procedural.stratified_split``: round(test_fraction * n_c) of each
     class go to test."""
     source = entry.get("source")
     standin = source == "folder" and not entry.get("path") and entry.get("standin", False)

@@ -8,7 +8,7 @@
 
 The label-file format itself and the labels a run keeps (``save_labels``,
 ``load_labels``, ``labels_for``) sit lower, in ``spl_al.data.label_files``, where the
-data layer (``data.unlabeled``) and training read them without this package.
+data layer (``data.unlabeled_folder``) and training read them without this package.
 """
 
 from spl_al.labeling.batch import read_label_file, write_batch

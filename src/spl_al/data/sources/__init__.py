@@ -6,10 +6,10 @@ through the source it names; ``names()`` lists the sources, ``get(name)`` gives 
 ``build`` function, ``register(name)`` adds one. The contract a source keeps is in
 ``spl_al.data.sources.base``; ``tests/test_sources.py`` checks every registered one.
 
-- synthetic: procedural images (``spl_al.data.synthetic``).
+- synthetic: procedural images (``spl_al.data.procedural``).
 - folder: a folder of labeled depth images (``spl_al.data.external``), or a
   synthetic stand-in when no path is given and ``standin: true``.
-- unlabeled: a folder of depth images for a human oracle (``spl_al.data.unlabeled``).
+- unlabeled: a folder of depth images for a human oracle (``spl_al.data.unlabeled_folder``).
 - captures: raw photon captures, read from the folder of their reconstructions.
 """
 

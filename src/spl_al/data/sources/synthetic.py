@@ -1,4 +1,4 @@
-"""Source ``synthetic``: procedural images, observed (``spl_al.data.synthetic``).
+"""Source ``synthetic``: procedural images, observed (``spl_al.data.procedural``).
 
 Reads ``task`` and ``synthesis`` (the keyword arguments of
 ``make_classification_dataset`` or ``make_segmentation_dataset``; ``seed`` among them).
@@ -7,8 +7,8 @@ Reads ``task`` and ``synthesis`` (the keyword arguments of
 from __future__ import annotations
 
 from spl_al.data.dataset import Dataset
+from spl_al.data.procedural import make_classification_dataset, make_segmentation_dataset
 from spl_al.data.sources.base import register, synthesis_options
-from spl_al.data.synthetic import make_classification_dataset, make_segmentation_dataset
 
 
 def synthesize(entry: dict) -> Dataset:

@@ -1,5 +1,5 @@
 """Source ``unlabeled``: a folder of depth images without labels, the pool of a human
-oracle (``spl_al.data.unlabeled``).
+oracle (``spl_al.data.unlabeled_folder``).
 
 Reads ``path``, ``classes``, ``task``, ``seed_labels`` (its ``test`` rows are the test
 split, at least one), ``depth_key`` (default ``depth_ssp``) and ``synthesis.image_shape``.
@@ -11,7 +11,7 @@ from pathlib import Path
 
 from spl_al.data.dataset import Dataset
 from spl_al.data.sources.base import register, synthesis_options
-from spl_al.data.unlabeled import load_unlabeled_folder
+from spl_al.data.unlabeled_folder import load_unlabeled_folder
 
 
 @register("unlabeled")
