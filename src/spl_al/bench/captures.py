@@ -22,7 +22,7 @@ import numpy as np
 
 from spl_al.bench.timing import markdown_table, median_seconds
 from spl_al.photon import Condition, PhotonScene, SensorParams, simulate_photons
-from spl_al.photon.estimate import estimate_conditions, estimate_pulse_sigma
+from spl_al.photon.calibration import estimate_conditions, estimate_pulse_sigma
 from spl_al.photon.formats import writers
 from spl_al.photon.io import load_capture
 from spl_al.photon.release import reconstruct_capture

@@ -126,7 +126,7 @@ def main(argv: list[str] | None = None) -> int:
 
 def _real(args, pictures) -> None:
     """--real: pictures of a capture with the sensor from its file and its photons."""
-    from spl_al.photon.estimate import estimate_pulse_sigma
+    from spl_al.photon.calibration import estimate_pulse_sigma
 
     args.capture, out = args.real
     capture = _load(args)

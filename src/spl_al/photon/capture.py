@@ -36,7 +36,7 @@ class Capture:
         n_bins: number of bins in the range gate.
         gate_start_s: arrival time of bin 0 after the laser pulse, seconds.
         pulse_sigma_s: instrument response sigma when the file states it, else None
-            (``spl_al.photon.estimate.estimate_pulse_sigma`` estimates it).
+            (``spl_al.photon.calibration.estimate_pulse_sigma`` estimates it).
         n_frames: frames (or laser pulse trains) summed into the capture, when known.
         format: the reader that produced it ("sparse_mat", "timestamps_mat", "cube", "ptu").
         path: the file.
@@ -82,7 +82,7 @@ class Capture:
             raise ValueError(
                 f"{self.path or 'capture'}: the file does not state the pulse sigma; "
                 "give pulse_sigma_s or estimate it from the photons "
-                "(spl_al.photon.estimate.estimate_pulse_sigma)."
+                "(spl_al.photon.calibration.estimate_pulse_sigma)."
             )
         return SensorParams(
             bin_width_s=float(self.bin_width_s),

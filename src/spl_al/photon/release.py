@@ -24,8 +24,8 @@ from pathlib import Path
 import numpy as np
 
 from spl_al.atomic import atomic_write
+from spl_al.photon.calibration import estimate_conditions, estimate_pulse_sigma
 from spl_al.photon.capture import Capture
-from spl_al.photon.estimate import estimate_conditions, estimate_pulse_sigma
 from spl_al.photon.reconstruct import reconstruct
 from spl_al.photon.sensor import SPEED_OF_LIGHT_M_PER_S
 

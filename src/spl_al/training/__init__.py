@@ -10,11 +10,12 @@ Public API:
 - ``evaluate(model, depth_m, valid, targets, levels=None, classes=None, device=None) -> dict``.
 """
 
+from spl_al.training.device import deterministic_algorithms, resolve_device
 from spl_al.training.fit import flatten_groups, masked_cross_entropy, train
 from spl_al.training.metrics import confusion_per_image, evaluate, summarise
 from spl_al.training.precision import MEASURE_PRECISION
 from spl_al.training.predict import Predictions, iter_forward, pool_pixels, predict
-from spl_al.training.recipe import TrainConfig, deterministic_algorithms, resolve_device
+from spl_al.training.recipe import TrainConfig
 
 __all__ = [
     "MEASURE_PRECISION",

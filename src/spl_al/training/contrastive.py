@@ -37,8 +37,8 @@ from torch import nn
 
 from spl_al.models import model_input
 from spl_al.models.classifier import SmallCNN
+from spl_al.training.device import deterministic_algorithms, resolve_device
 from spl_al.training.fit import ProgressLog, random_shift
-from spl_al.training.recipe import deterministic_algorithms, resolve_device
 from spl_al.training.sgd import SGD
 
 

@@ -17,8 +17,9 @@ from torch import nn
 
 from spl_al.label_codes import IGNORE_INDEX
 from spl_al.models import model_input, reset_parameters, seed_own_draws, training_outputs
+from spl_al.training.device import deterministic_algorithms, resolve_device
 from spl_al.training.precision import LossScaler, autocast, resolve_precision
-from spl_al.training.recipe import TrainConfig, deterministic_algorithms, resolve_device
+from spl_al.training.recipe import TrainConfig
 from spl_al.training.sgd import SGD
 
 

@@ -10,8 +10,8 @@ import torch
 from torch import nn
 
 from spl_al.models import model_input
+from spl_al.training.device import resolve_device
 from spl_al.training.precision import autocast, resolve_precision
-from spl_al.training.recipe import resolve_device
 
 FEATURE_MODES = ("image", "pixel", "none")
 

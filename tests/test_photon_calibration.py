@@ -15,7 +15,7 @@ from spl_al.photon import (
     reconstruct,
     simulate_photons,
 )
-from spl_al.photon.estimate import (
+from spl_al.photon.calibration import (
     FrameConditions,
     PulseEstimate,
     estimate_conditions,
