@@ -39,7 +39,16 @@ except ValueError as err:
 
 
 include: "workflow/rules/common.smk"
-include: "workflow/rules/embedding_common.smk"
+include: "workflow/rules/functions/photon.smk"
+include: "workflow/rules/functions/captures.smk"
+include: "workflow/rules/functions/data.smk"
+include: "workflow/rules/functions/al.smk"
+include: "workflow/rules/functions/human.smk"
+include: "workflow/rules/functions/report.smk"
+include: "workflow/rules/functions/embedding.smk"
+include: "workflow/rules/functions/robustness.smk"
+include: "workflow/rules/functions/deploy.smk"
+include: "workflow/rules/functions/warm.smk"
 include: "workflow/rules/photon.smk"
 include: "workflow/rules/captures.smk"
 include: "workflow/rules/data.smk"

@@ -305,7 +305,7 @@ def test_every_module_named_in_a_string_exists():
     command table name modules in strings, which a move would leave behind."""
     places = [
         *sorted((ROOT / "workflow" / "scripts").glob("*.py")),
-        *sorted((ROOT / "workflow" / "rules").glob("*.smk")),
+        *sorted((ROOT / "workflow" / "rules").rglob("*.smk")),
         SRC / "spl_al" / "__main__.py",
         SRC / "spl_al" / "warm" / "server.py",
     ]

@@ -115,7 +115,7 @@ def test_every_script_runs_through_the_warm_client():
     """A rule that runs a workflow script does it with `shell: python_job(NAME)`:
     Snakemake's `script:` would import Snakemake in every job's process (~0.25 CPU-s a
     job); each named script exists, and no script is left without a rule."""
-    rules = "\n".join(p.read_text() for p in sorted((ROOT / "workflow" / "rules").glob("*.smk")))
+    rules = "\n".join(p.read_text() for p in sorted((ROOT / "workflow" / "rules").rglob("*.smk")))
     assert not re.search(r"^\s+script:", rules, re.MULTILINE)
     named = re.findall(r'python_job\("(\w+)"\)', rules)
     scripts = {p.stem for p in (ROOT / "workflow" / "scripts").glob("*.py")}
@@ -130,3 +130,19 @@ def test_every_script_runs_through_the_warm_client():
         assert params is None or params[1].startswith("job=job_params("), block
         # ... and its files: the script's snakemake.input, .output and .wildcards
         assert params is None or re.search(r"^\s+files=job_files,$", block, re.MULTILINE)
+
+
+def test_common_smk_holds_only_what_rule_files_share():
+    """workflow/rules/common.smk stays the shared part (at most 250 lines, the
+    snakemake-workflows layout's size); a rule file's own functions live in
+    workflow/rules/functions/ under its name, and no file mixes rules and functions
+    (snakemake --lint)."""
+    rules = ROOT / "workflow" / "rules"
+    assert len((rules / "common.smk").read_text().splitlines()) <= 250
+    functions = {p.stem for p in (rules / "functions").glob("*.smk")}
+    assert functions <= {p.stem for p in rules.glob("*.smk")}
+    for path in [*rules.glob("*.smk"), *(rules / "functions").glob("*.smk")]:
+        text = path.read_text()
+        defines = re.search(r"^def ", text, re.MULTILINE)
+        has_rules = re.search(r"^(rule|use rule) ", text, re.MULTILINE)
+        assert not (defines and has_rules), f"{path.name} mixes rules and functions"

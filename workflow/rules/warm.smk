@@ -3,7 +3,7 @@
 # forked from it, so a job starts in ~0.1 s instead of ~2 s. Jobs stay Snakemake jobs
 # (own log, benchmark, exit code); without the server they run in their own process.
 # Off on a cluster, with per-rule conda environments, and with `warm_worker: false`.
-# start_warm_worker / stop_warm_worker: workflow/rules/common.smk.
+# start_warm_worker / stop_warm_worker: workflow/rules/functions/warm.smk.
 
 
 onstart:

@@ -1,19 +1,4 @@
-# Names and input functions of the embedding framework (workflow/rules/embedding.smk)
-# and of the supervised rounds that select on its embedding (features: embedding).
-
-
-def selects_on_embedding(dataset):
-    """Whether a supervised run of the dataset selects on the embedding."""
-    names = {m for m, _seed in runs(dataset)}
-    return any(METHODS[m].features == "embedding" for m in names if m in METHODS)
-
-
-def selection_embeddings(wildcards):
-    """The train job's embeddings, when its method selects on them."""
-    if METHODS[wildcards.method].features != "embedding":
-        return {}
-    # (made by the encoder rule, workflow/rules/embedding.smk)
-    return {"embeddings": f"{RESULTS}/{wildcards.dataset}/embedding/embeddings.npz"}
+# Input functions of workflow/rules/embedding.smk: the embedding framework.
 
 
 # Datasets with an encoder: an embedding framework, or a method selecting on it.
