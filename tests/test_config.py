@@ -407,3 +407,14 @@ def test_features_embedding_is_refused_for_a_strategy_that_reads_the_model():
     config["datasets"]["real_cls"]["experiments"]["budget"]["methods"].append("margin_ssl")
     with pytest.raises(ValueError, match=r"'methods\.margin_ssl\.features'.*margin also needs"):
         check_plan(config)
+
+
+def test_a_folder_without_path_or_standin_is_refused_before_any_job():
+    from spl_al.config import is_standin
+
+    config = _merged()
+    assert is_standin(config["datasets"]["real_cls"])
+    config["datasets"]["real_cls"]["standin"] = False
+    assert not is_standin(config["datasets"]["real_cls"])
+    with pytest.raises(ValueError, match=r"'datasets\.real_cls\.path': dataset source is 'f"):
+        check_plan(config)

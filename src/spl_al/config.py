@@ -34,6 +34,20 @@ def drop_removed(config: dict) -> dict:
     return config
 
 
+NO_PATH = "dataset source is 'folder' but no 'path' is given; set 'path' or 'standin: true'."
+
+
+def is_standin(entry: dict) -> bool:
+    """Whether a dataset entry is a synthetic stand-in for real data: ``source: folder``
+    without a ``path``, with ``standin: true`` (``spl_al.data.sources.folder`` then
+    synthesises it from ``synthesis``; without ``standin`` such an entry is refused)."""
+    return (
+        entry.get("source") == "folder"
+        and not entry.get("path")
+        and bool(entry.get("standin", False))
+    )
+
+
 ONLY_DATASETS = "only_datasets"
 SOURCES = ("synthetic", "folder", "unlabeled", "captures")
 

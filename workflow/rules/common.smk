@@ -6,7 +6,7 @@ from pathlib import Path
 from snakemake.logging import logger
 from snakemake.settings.types import DeploymentMethod, ExecMode
 
-from spl_al.config import dataset_precision, train_setup, training_notes
+from spl_al.config import dataset_precision, is_standin, train_setup, training_notes
 from spl_al.data.external import folder_has_levels
 from spl_al.warm import client as warm_client
 from spl_al.experiment.overview import jobs_line, plan_text
@@ -167,8 +167,7 @@ def has_levels(dataset):
     entry = config["datasets"][dataset]
     if entry["source"] == "captures":
         return True
-    standin = entry["source"] == "folder" and not entry.get("path")
-    if entry["source"] == "synthetic" or standin or entry.get("levels_file"):
+    if entry["source"] == "synthetic" or is_standin(entry) or entry.get("levels_file"):
         return True
     return folder_has_levels(entry["path"], entry.get("depth_key", "depth_ssp"))
 

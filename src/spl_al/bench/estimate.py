@@ -32,6 +32,7 @@ from pathlib import Path
 
 from spl_al.bench.projection import merged_config, method_variants, split_sizes
 from spl_al.bench.timing import markdown_table
+from spl_al.config import is_standin
 
 ROOT = Path(__file__).resolve().parents[3]
 
@@ -330,8 +331,7 @@ def estimate_config(config: dict, jobs: int = 2, steps: int = STEPS, log=print) 
     rows, total_core, total_jobs = [], 0.0, FIXED_JOBS
     with tempfile.TemporaryDirectory() as tmp:
         for dataset, entry in config["datasets"].items():
-            standin = entry.get("source") == "folder" and not entry.get("path")
-            if entry.get("source") != "synthetic" and not standin:
+            if entry.get("source") != "synthetic" and not is_standin(entry):
                 log(f"{dataset}: source {entry.get('source')!r} is not estimated (its size "
                     "is known only from its files).")  # fmt: skip
                 continue

@@ -8,6 +8,7 @@ when ``only_datasets`` reuses a default's name; the results folder. The workflow
 
 from __future__ import annotations
 
+from spl_al.config import is_standin
 from spl_al.experiment.plan import experiments_of, labeled_at, sweep_table_spec
 
 DEFAULT_SHAPES = {"classification": (64, 64), "segmentation": (64, 256)}
@@ -25,8 +26,7 @@ def image_shape(entry: dict) -> str:
     """What shape a dataset's images take, in words."""
     shape = (entry.get("synthesis") or {}).get("image_shape")
     source = entry.get("source")
-    standin = source == "folder" and not entry.get("path")
-    if source == "synthetic" or standin:
+    if source == "synthetic" or is_standin(entry):
         rows, cols = shape or DEFAULT_SHAPES.get(entry.get("task"), ("?", "?"))
         return f"{rows}x{cols} images"
     what = "captures" if source == "captures" else "files"
@@ -37,7 +37,7 @@ def image_shape(entry: dict) -> str:
 
 def _source(entry: dict) -> str:
     source = entry.get("source")
-    if source == "folder" and not entry.get("path"):
+    if is_standin(entry):
         return "folder (not set: a synthetic stand-in)"
     if entry.get("path"):
         return f"{source} {entry['path']}"

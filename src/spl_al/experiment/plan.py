@@ -364,9 +364,9 @@ def train_pool_size(entry: dict) -> int | None:
     an unlabeled folder: knowable only by reading the data). Mirrors
     ``spl_al.data.procedural.stratified_split``: round(test_fraction * n_c) of each
     class go to test."""
-    source = entry.get("source")
-    standin = source == "folder" and not entry.get("path") and entry.get("standin", False)
-    if source != "synthetic" and not standin:
+    from spl_al.config import is_standin
+
+    if entry.get("source") != "synthetic" and not is_standin(entry):
         return None
     syn = entry.get("synthesis") or {}
     test_fraction = float(syn.get("test_fraction", 0.3))
@@ -431,7 +431,11 @@ def check_plan(config: dict) -> None:
     (where the config fixes the pool's size)."""
     specs = method_specs(config)
     check_strategies(config, specs)
+    from spl_al.config import NO_PATH, is_standin
+
     for dataset, entry in config["datasets"].items():
+        if entry.get("source") == "folder" and not entry.get("path") and not is_standin(entry):
+            raise ValueError(f"config key 'datasets.{dataset}.path': {NO_PATH}")
         if entry.get("source") == "unlabeled" and entry.get("oracle") != "human":
             raise ValueError(
                 f"config key 'datasets.{dataset}.oracle': an unlabeled folder has no labels "

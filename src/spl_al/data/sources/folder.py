@@ -10,6 +10,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
+from spl_al.config import NO_PATH, is_standin
 from spl_al.data.dataset import Dataset
 from spl_al.data.external import load_folder
 from spl_al.data.sources.base import register, synthesis_options
@@ -20,10 +21,8 @@ from spl_al.data.sources.synthetic import synthesize
 def build(entry: dict, *, release_dir=None) -> Dataset:
     """Load the folder at ``path``, or the synthetic stand-in (``release_dir`` is not used)."""
     if not entry.get("path"):
-        if not entry.get("standin", False):
-            raise ValueError(
-                "dataset source is 'folder' but no 'path' is given; set 'path' or 'standin: true'."
-            )
+        if not is_standin(entry):
+            raise ValueError(NO_PATH)
         dataset = synthesize(entry)
         dataset.meta["synthetic_standin"] = True
         return dataset
