@@ -253,33 +253,12 @@ def _record(facts: ProbeData, model, method: str, *, which, n_labeled, n_images)
     }
 
 
-def _check_pool(strategy, n_unlabeled: int, *, dataset, method, seed, round_) -> None:
-    """A k-means candidate pool strategy's ``check_pool``, its error the supervised
-    query's one sentence naming the run (``n_cand_error``)."""
-    if getattr(strategy, "n_cand", None) is None:
-        return
-    from spl_al.strategies.duis import CandidatePoolTooLarge, n_cand_error
-
-    try:
-        strategy.check_pool(int(n_unlabeled))
-    except CandidatePoolTooLarge as err:
-        message = n_cand_error(
-            err.n_cand,
-            err.n_unlabeled,
-            round_=round_,
-            dataset=dataset,
-            method=method,
-            seed=seed,
-            fraction=strategy.max_cand_fraction,
-        )
-        raise CandidatePoolTooLarge(message, err.n_cand, err.n_unlabeled) from None
-
-
 def _run(facts: ProbeData, spec: MethodSpec, *, which, al, rounds, c, n_variants) -> list[dict]:
     """The records of one (method, seed) run: fit, measure and query, round by round."""
     from spl_al.linear_probe import LinearProbe, probe_inputs
     from spl_al.pool import Pool, initial_labeled_set
     from spl_al.strategies import check_picks, get
+    from spl_al.strategies.duis import check_candidate_pool
 
     dataset, seed = which
     strategy = get(spec.strategy, **spec.params)
@@ -325,7 +304,7 @@ def _run(facts: ProbeData, spec: MethodSpec, *, which, al, rounds, c, n_variants
             n_images=1 + spec.variants_seen(n_variants),
         )
         batch = batch_of(al, r + 1)
-        _check_pool(
+        check_candidate_pool(
             strategy, inputs.n_unlabeled, dataset=dataset, method=spec.name, seed=seed, round_=r + 1
         )
         rng = np.random.default_rng(step_seed(seed, r, QUERY_STREAM))

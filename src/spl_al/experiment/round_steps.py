@@ -622,7 +622,7 @@ def query_round(
     naming the round, the strategy and what it returned, and nothing is written."""
     from spl_al.pool import Pool
     from spl_al.strategies import StrategyContractError, StrategyInputs, check_picks, get
-    from spl_al.strategies.duis import CandidatePoolTooLarge, n_cand_error
+    from spl_al.strategies.duis import check_candidate_pool
 
     spec = MethodSpec(name="", **method)
     inputs = StrategyInputs.load(scores_path)
@@ -630,20 +630,8 @@ def query_round(
     strategy = get(spec.strategy, **spec.params)
     n_unlabeled = int(inputs.n_unlabeled)
     n_cand = getattr(strategy, "n_cand", None)
-    try:
-        if n_cand is not None:
-            strategy.check_pool(n_unlabeled)
-    except CandidatePoolTooLarge as err:
-        message = n_cand_error(
-            err.n_cand,
-            err.n_unlabeled,
-            round_=round_,
-            dataset=dataset,
-            method=method_name,
-            seed=seed,
-            fraction=strategy.max_cand_fraction,
-        )
-        raise CandidatePoolTooLarge(message, err.n_cand, err.n_unlabeled) from None
+    where = {"round_": round_, "dataset": dataset, "method": method_name, "seed": seed}
+    check_candidate_pool(strategy, n_unlabeled, **where)
     rng = np.random.default_rng(step_seed(seed, round_ - 1, QUERY_STREAM))
     try:
         picked = check_picks(spec.strategy, strategy.select(inputs, int(batch), rng), inputs, batch)

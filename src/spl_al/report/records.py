@@ -206,36 +206,37 @@ def _frame(rows: list[dict]) -> pd.DataFrame:
     return frame.sort_values(key, ignore_index=True)
 
 
+def _check_one_value(frame: pd.DataFrame, column: str, what: str, remedy: str) -> None:
+    """A ValueError unless each dataset's rounds share one known value of ``column``,
+    naming a record of each value found (``what``: the rounds' difference in words)."""
+    known = frame[frame[column] != ""]
+    for dataset, part in known.groupby("dataset"):
+        if part[column].nunique() > 1:
+            first = part.drop_duplicates(column).sort_values(column)
+            found = ", ".join(
+                f"{v} ({s})" for v, s in zip(first[column], first["source"], strict=True)
+            )
+            raise ValueError(f"dataset {dataset!r} mixes rounds {what}, {found}; {remedy}")
+
+
 def _check_one_precision(frame: pd.DataFrame) -> None:
     """A ValueError unless each dataset's rounds were trained at one precision: a bf16
     and an fp32 run of the same config reach different verdicts (docs/benchmarks.md,
     precision and verdicts), so one table never mixes them."""
-    known = frame[frame["precision"] != ""]
-    for dataset, part in known.groupby("dataset"):
-        if part["precision"].nunique() > 1:
-            first = part.drop_duplicates("precision").sort_values("precision")
-            found = ", ".join(
-                f"{p} ({s})" for p, s in zip(first["precision"], first["source"], strict=True)
-            )
-            raise ValueError(
-                f"dataset {dataset!r} mixes rounds trained at different precisions, {found}; "
-                "rerun them at one precision (the config's `precision:`, e.g. with "
-                "--forcerun train_initial train) so that its tables compare like with like."
-            )
+    _check_one_value(
+        frame,
+        "precision",
+        "trained at different precisions",
+        "rerun them at one precision (the config's `precision:`, e.g. with --forcerun "
+        "train_initial train) so that its tables compare like with like.",
+    )
 
 
 def _check_one_framework(frame: pd.DataFrame) -> None:
     """A ValueError unless each dataset's rounds come from one framework."""
-    for dataset, part in frame.groupby("dataset"):
-        if part["framework"].nunique() > 1:
-            first = part.drop_duplicates("framework").sort_values("framework")
-            found = ", ".join(
-                f"{f} ({s})" for f, s in zip(first["framework"], first["source"], strict=True)
-            )
-            raise ValueError(
-                f"dataset {dataset!r} mixes rounds of different frameworks, {found}; "
-                "a table reads one framework's records."
-            )
+    _check_one_value(
+        frame, "framework", "of different frameworks", "a table reads one framework's records."
+    )
 
 
 def framework_of(df: pd.DataFrame) -> str:

@@ -306,3 +306,19 @@ class DUISStrategy(Strategy):
         pool = self.candidates(inputs, k, rng)
         score = uis(inputs.gamma[pool], inputs.inconsistency[pool], self.alpha, self.eps)
         return pool[top_k(score, k, rng)]
+
+
+def check_candidate_pool(strategy, n_unlabeled: int, **where) -> None:
+    """A k-means candidate pool strategy's ``check_pool`` for a query of ``n_unlabeled``
+    groups, its ``CandidatePoolTooLarge`` worded by ``n_cand_error`` with ``where``
+    (round_, dataset, method, seed): the one sentence that names the run. Strategies
+    without N_cand pass."""
+    if getattr(strategy, "n_cand", None) is None:
+        return
+    try:
+        strategy.check_pool(int(n_unlabeled))
+    except CandidatePoolTooLarge as err:
+        message = n_cand_error(
+            err.n_cand, err.n_unlabeled, fraction=strategy.max_cand_fraction, **where
+        )
+        raise CandidatePoolTooLarge(message, err.n_cand, err.n_unlabeled) from None
