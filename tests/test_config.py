@@ -106,6 +106,7 @@ SHIPPED = [
     "decisive.yaml",
     "decisive-synth_cls.yaml",
     "decisive-street_seg.yaml",
+    "decisive-street_pc.yaml",
     "street.yaml",
 ]
 
@@ -159,6 +160,7 @@ def test_decisive_config_extends_the_default_run_of_real_cls():
         ("decisive.yaml", "real_cls"),
         ("decisive-synth_cls.yaml", "synth_cls"),
         ("decisive-street_seg.yaml", "street_seg"),
+        ("decisive-street_pc.yaml", "street_pc"),
     ],
 )
 def test_each_decisive_config_runs_one_dataset_with_both_families(name, dataset):
