@@ -27,7 +27,7 @@ from __future__ import annotations
 import math
 import os
 import time
-from dataclasses import asdict, dataclass, fields
+from dataclasses import asdict, dataclass
 from typing import TextIO
 
 import numpy as np
@@ -39,6 +39,7 @@ from spl_al.models import model_input
 from spl_al.models.classifier import SmallCNN
 from spl_al.training.device import deterministic_algorithms, resolve_device
 from spl_al.training.fit import ProgressLog, random_shift
+from spl_al.training.recipe import known_fields
 from spl_al.training.sgd import SGD
 
 
@@ -76,14 +77,7 @@ class EncoderConfig:
     @classmethod
     def from_dict(cls, values: dict | None) -> EncoderConfig:
         """From config ``embedding.encoder``; an unknown key is a one-sentence ValueError."""
-        values = dict(values or {})
-        known = {f.name for f in fields(cls)}
-        unknown = sorted(set(values) - known)
-        if unknown:
-            raise ValueError(
-                f"embedding.encoder: unknown keys {unknown}; expected some of {sorted(known)}."
-            )
-        return cls(**values)
+        return cls(**known_fields(cls, values, "embedding.encoder: unknown keys"))
 
     def as_dict(self) -> dict:
         """JSON-ready fields."""

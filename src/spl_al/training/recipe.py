@@ -159,14 +159,7 @@ class TrainConfig:
     @classmethod
     def from_dict(cls, params: Mapping | None) -> TrainConfig:
         """Config from a mapping (e.g. a YAML section); missing keys keep their defaults."""
-        params = dict(params or {})
-        known = {f.name for f in fields(cls)}
-        unknown = sorted(set(params) - known)
-        if unknown:
-            raise ValueError(
-                f"unknown TrainConfig keys {unknown}; expected some of {sorted(known)}."
-            )
-        return cls(**params)
+        return cls(**known_fields(cls, params, "unknown TrainConfig keys"))
 
     @classmethod
     def paper(cls) -> TrainConfig:
@@ -197,3 +190,14 @@ class TrainConfig:
         """Images drawn over the whole training: ``total_steps`` x ``batch_images``
         (exact: every batch is full, an epoch drops its ragged last batch)."""
         return self.total_steps(n_images, n_groups) * self.batch_images(n_images)
+
+
+def known_fields(cls, values: Mapping | None, unknown_words: str) -> dict:
+    """``values`` as a dict when every key is a field of dataclass ``cls``; else a
+    one-sentence ValueError, ``unknown_words`` followed by the keys and the fields."""
+    values = dict(values or {})
+    known = {f.name for f in fields(cls)}
+    unknown = sorted(set(values) - known)
+    if unknown:
+        raise ValueError(f"{unknown_words} {unknown}; expected some of {sorted(known)}.")
+    return values
