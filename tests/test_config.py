@@ -391,7 +391,11 @@ def test_the_default_run_decides_in_the_embedding_framework_at_100_seeds():
             "datasets.real_cls.embedding.probe.c",
             "less than or equal to the minimum of 0",
         ),
-        ({"experiments": {"budget": {"framework": "x"}}}, "budget", "framework"),
+        (
+            {"experiments": {"budget": {"framework": "x"}}},
+            "datasets.real_cls.embedding.experiments.budget.framework",
+            "'x' is not one of",
+        ),
     ],
 )
 def test_a_bad_embedding_block_names_its_key(change, key, message):
@@ -401,6 +405,25 @@ def test_a_bad_embedding_block_names_its_key(change, key, message):
     with pytest.raises(ValueError, match=message) as err:
         check_config(config, schema)
     assert key in str(err.value)
+
+
+def test_a_framework_key_must_name_the_framework_of_where_it_sits():
+    config = _merged()
+    entry = config["datasets"]["real_cls"]
+    entry["embedding"]["experiments"]["budget"]["framework"] = "embedding"
+    entry["experiments"]["levels"]["framework"] = "supervised"
+    schema = Path(__file__).resolve().parents[1] / "config" / "schema.yaml"
+    check_config(config, schema)
+    check_plan(config)  # the keys that agree with their location are accepted
+    entry["experiments"]["budget"]["framework"] = "embedding"
+    check_config(config, schema)
+    with pytest.raises(
+        ValueError,
+        match=r"'datasets\.real_cls\.experiments\.budget\.framework': 'embedding' but "
+        r"experiments under 'experiments' run the supervised framework; move the experiment "
+        r"under 'embedding\.experiments'",
+    ):
+        check_plan(config)
 
 
 def test_features_embedding_is_refused_for_a_strategy_that_reads_the_model():

@@ -424,6 +424,22 @@ def _check_candidate_pools(config: dict, dataset: str, runs: dict, specs: dict) 
                 raise ValueError(message)
 
 
+def _check_framework_keys(dataset: str, entry: dict) -> None:
+    """An experiment's optional ``framework`` key names the framework of where it sits."""
+    for framework in FRAMEWORKS:
+        prefix = "experiments" if framework == "supervised" else "embedding.experiments"
+        for kind, experiment in framework_experiments(entry, framework).items():
+            given = (experiment or {}).get("framework", framework)
+            if given != framework:
+                raise ValueError(
+                    f"config key 'datasets.{dataset}.{prefix}.{kind}.framework': {given!r} "
+                    f"but experiments under '{prefix}' run the {framework} framework; "
+                    f"move the experiment under "
+                    f"'{'embedding.experiments' if given == 'embedding' else 'experiments'}' "
+                    "or drop the key."
+                )
+
+
 def check_plan(config: dict) -> None:
     """Every method's strategy exists and takes its parameters; every method a
     dataset's experiments name must exist; rounds must be >= 1; a per-round batch list
@@ -441,6 +457,7 @@ def check_plan(config: dict) -> None:
                 f"config key 'datasets.{dataset}.oracle': an unlabeled folder has no labels "
                 "to simulate the oracle with; set oracle: human."
             )
+        _check_framework_keys(dataset, entry)
         runs = {}
         for framework in FRAMEWORKS:
             for key, rounds in dataset_runs(config, dataset, framework).items():
