@@ -13,8 +13,8 @@ import yaml
 from spl_al.experiment.plan import budget_families, dataset_runs, experiments_of, method_specs
 from spl_al.report import records_frame
 from spl_al.report.claims import claims, render_claims_markdown
-from spl_al.report.comparisons import comparisons
 from spl_al.report.decomposition import METHODS, PARTS, decomposition
+from spl_al.report.table_kinds import comparisons
 
 N_TOTAL = 1000
 

@@ -12,7 +12,7 @@ from scipy.stats import t as student_t
 
 from spl_al.report import budget_table, records_frame, render_markdown, summary
 from spl_al.report.claims import claims, render_claims_markdown
-from spl_al.report.comparisons import comparisons, render_comparisons_markdown
+from spl_al.report.comparisons import render_comparisons_markdown
 from spl_al.report.stats import (
     aubc,
     aubc_per_seed,
@@ -27,6 +27,7 @@ from spl_al.report.stats import (
     t_interval,
     t_power,
 )
+from spl_al.report.table_kinds import comparisons
 
 T_975_2 = 4.302652729911275  # t quantile 0.975 with 2 degrees of freedom
 

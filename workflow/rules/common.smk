@@ -10,6 +10,7 @@ from spl_al.config import dataset_precision, is_standin, train_setup, training_n
 from spl_al.data.external import folder_has_levels
 from spl_al.warm import client as warm_client
 from spl_al.experiment.overview import jobs_line, plan_text
+from spl_al.report.table_kinds import TABLE_KINDS, table_names
 from spl_al.experiment.provenance import (
     OLDER_RESULTS,
     changes_text,

@@ -29,7 +29,7 @@ rule table:
     benchmark:
         f"{RESULTS}/benchmarks/{{dataset}}/table_{{table}}.tsv"
     wildcard_constraints:
-        table="budget|levels|ablation|sensitivity",
+        table="|".join(TABLE_KINDS),
     conda:
         "../envs/spl-al.yaml"
     threads: 1

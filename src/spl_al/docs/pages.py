@@ -38,17 +38,12 @@ from datetime import UTC, datetime
 from pathlib import Path
 
 from spl_al.docs.markers import block, markers, replace_block
+from spl_al.report.table_kinds import TABLE_KINDS
 
 COMMAND = "python -m spl_al.docs.pages"
 BLOCK = "results"
 # datasets in this order first (the default config's), then any other alphabetically
 ORDER = ("real_cls", "synth_cls", "street_seg", "street_pc")
-TABLES = (
-    ("budget", "Budget"),
-    ("levels", "Per MSPPP level"),
-    ("ablation", "Ablation"),
-    ("sensitivity", "Sensitivity"),
-)
 # results/{dataset}/figures/{source}.png -> docs/figures/{dataset}_{name}.png
 FIGURES = (
     ("curves", "budget", "budget curves, mean ± std over seeds"),
@@ -518,7 +513,8 @@ def results_block(
             lines += [f"*{note}*", ""]
         for file_name, caption in figures.get(dataset, []):
             lines += [f"![{dataset}: {caption}]({figures_dir}/{file_name})", ""]
-        for name, title in TABLES:
+        for name, kind in TABLE_KINDS.items():
+            title = kind.title
             table = _md_table(results, dataset, name)
             if table:
                 lines += [f"### {dataset}: {title[:1].lower()}{title[1:]}", "", table, ""]

@@ -10,16 +10,10 @@ from __future__ import annotations
 
 from spl_al.config import is_standin
 from spl_al.experiment.plan import experiments_of, labeled_at, sweep_table_spec
+from spl_al.report.table_kinds import TABLE_KINDS, TableContext
 
 DEFAULT_SHAPES = {"classification": (64, 64), "segmentation": (64, 256)}
 """Image shape of the synthetic generators when ``synthesis.image_shape`` is unset."""
-
-
-def _numbers(values) -> str:
-    values = list(values)
-    if len(values) > 6 and values == list(range(values[0], values[0] + len(values))):
-        return f"{values[0]}-{values[-1]} ({len(values)})"
-    return ", ".join(str(v) for v in values)
 
 
 def image_shape(entry: dict) -> str:
@@ -42,16 +36,6 @@ def _source(entry: dict) -> str:
     if entry.get("path"):
         return f"{source} {entry['path']}"
     return str(source)
-
-
-def _budget(entry: dict, budget: dict, human: bool) -> str:
-    rounds = int(budget["rounds"])
-    labeled = _numbers(labeled_at(entry["al"], r) for r in range(rounds))
-    more = " (each stops for your labels)" if human else ""
-    return (
-        f"budget: methods {', '.join(budget['methods'])}; seeds {_numbers(budget['seeds'])}; "
-        f"{rounds} rounds{more} at {labeled} labeled groups"
-    )
 
 
 def dataset_lines(config: dict, dataset: str) -> list[str]:
@@ -77,27 +61,18 @@ def dataset_lines(config: dict, dataset: str) -> list[str]:
 
 def _experiment_lines(config: dict, dataset: str, exps: dict, human: bool) -> list[str]:
     entry = config["datasets"][dataset]
-    lines = []
-    if exps.get("budget"):
-        lines.append("  " + _budget(entry, exps["budget"], human))
-    if exps.get("levels"):
-        lines.append(f"  levels: round {exps['levels']['round']}")
-    ablation = exps.get("ablation")
-    if ablation:
-        lines.append(
-            f"  ablation: methods {', '.join(ablation['methods'])}; "
-            f"seeds {_numbers(ablation['seeds'])}; round {ablation['round']}"
-        )
-    sens = exps.get("sensitivity")
-    if sens:
-        m = int((entry.get("variants") or {}).get("n", 4))
-        swept = "; ".join(
-            f"{param} {_numbers(values)} at round {sens['rounds'][param]}"
-            for param, values in sweep_table_spec(config, m).items()
-            if param in sens["rounds"]
-        )
-        lines.append(f"  sensitivity: {swept}; seeds {_numbers(sens['seeds'])}")
-    return lines
+    m = int((entry.get("variants") or {}).get("n", 4))
+    ctx = TableContext(
+        exps,
+        sweep_table_spec(config, m),
+        labeled=lambda r: labeled_at(entry["al"], r),
+        human=human,
+    )
+    return [
+        "  " + kind.describe(exps[name], ctx)
+        for name, kind in TABLE_KINDS.items()
+        if exps.get(name)
+    ]
 
 
 def plan_text(config: dict, inherited: dict | None = None) -> str:

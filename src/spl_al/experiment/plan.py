@@ -14,6 +14,8 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 
+from spl_al.report.table_kinds import TABLE_KINDS, TableContext
+
 SWEEP_PARAMETERS = {"n_cand": "ncand", "alpha": "alpha", "n_variants": "m"}
 
 FULL_METHOD = "duis"
@@ -308,25 +310,16 @@ def dataset_runs(
     ``framework`` need."""
     entry = config["datasets"][dataset]
     exps = experiments_of(config, dataset, framework=framework)
+    m = entry.get("variants", {}).get("n", 4)
+    ctx = TableContext(exps, sweep_table_spec(config, m))
     runs: dict[tuple[str, int], int] = {}
-
-    def need(methods, seeds, rounds):
-        for m in methods:
-            for s in seeds:
-                runs[(m, s)] = max(runs.get((m, s), 0), int(rounds))
-
-    budget = exps.get("budget")
-    if budget:
-        need(budget["methods"], budget["seeds"], budget["rounds"])
-    ablation = exps.get("ablation")
-    if ablation:
-        need(ablation["methods"], ablation["seeds"], ablation["round"] + 1)
-    sens = exps.get("sensitivity")
-    if sens:
-        m = entry.get("variants", {}).get("n", 4)
-        for parameter, values in sweep_table_spec(config, m).items():
-            rounds = sens["rounds"][parameter]
-            need(values.values(), sens["seeds"], rounds + 1)
+    for name, kind in TABLE_KINDS.items():
+        if name not in exps:
+            continue
+        for methods, seeds, rounds in kind.runs(exps[name], ctx):
+            for method in methods:
+                for seed in seeds:
+                    runs[(method, seed)] = max(runs.get((method, seed), 0), int(rounds))
     return runs
 
 

@@ -21,43 +21,18 @@ def framework_notes(df) -> list[str]:
 def make_table(
     metrics_paths, kind: str, *, experiments: dict, sweeps: dict, out_stem, notes=()
 ) -> None:
-    """One of the paper's tables (budget, levels, ablation, sensitivity) as CSV + MD + TeX;
+    """The table of kind ``kind`` (``spl_al.report.table_kinds``) as CSV + MD + TeX;
     ``notes`` (e.g. ``spl_al.config.training_notes``) go into its caption."""
     from spl_al import report
+    from spl_al.report.table_kinds import TableContext, table_kind
 
+    table = table_kind(kind)
     df = report.load_records(metrics_paths)
-    metric = df["metric"].iloc[0]
-    at_round = experiments.get(kind, {}).get("round")
-    caption = {
-        "budget": f"{metric} (%) vs labeling ratio, mean ± std over seeds",
-        "levels": f"{metric} (%) per MSPPP level at round {at_round}",
-        "ablation": f"ablation: {metric} (%) at round {at_round}",
-        "sensitivity": f"parameter sensitivity of DUIS: {metric} (%)",
-    }[kind]
+    caption = table.caption(df["metric"].iloc[0], experiments[kind])
     notes = [*framework_notes(df), *notes]
     if notes:
         caption += f" ({'; '.join(str(n) for n in notes)})"
-    if kind == "budget":
-        frame = report.budget_table(df, methods=experiments["budget"]["methods"])
-    elif kind == "levels":
-        frame = report.level_table(
-            df, round=experiments["levels"]["round"], methods=experiments["budget"]["methods"]
-        )
-    elif kind == "ablation":
-        frame = report.ablation_table(
-            df, experiments["ablation"]["round"], rows=experiments["ablation"]["methods"]
-        )
-    elif kind == "sensitivity":
-        renamed = {("m" if p == "n_variants" else p): v for p, v in sweeps.items()}
-        rounds = {
-            ("m" if p == "n_variants" else p): r
-            for p, r in experiments["sensitivity"]["rounds"].items()
-        }
-        frame = report.sensitivity_table(df, renamed, rounds)
-    else:
-        raise ValueError(
-            f"unknown table {kind!r}; expected budget, levels, ablation or sensitivity."
-        )
+    frame = table.build(df, TableContext(experiments, sweeps))
     report.write_table(frame, out_stem, caption=caption)
 
 
@@ -112,14 +87,14 @@ def make_stats(metrics_paths, experiments: dict, sweeps: dict, out: dict) -> Non
     from spl_al import report
     from spl_al.atomic import atomic_write_text
     from spl_al.report.claims import at_precision, claims, render_claims_markdown
-    from spl_al.report.comparisons import comparisons, render_comparisons_markdown
+    from spl_al.report.comparisons import render_comparisons_markdown
     from spl_al.report.decomposition import decomposition, render_decomposition_markdown
     from spl_al.report.stat_figures import aubc_figure
     from spl_al.report.stats import query_rounds
+    from spl_al.report.table_kinds import comparisons
 
     df = report.load_records(metrics_paths)
-    renamed = {("m" if p == "n_variants" else p): v for p, v in sweeps.items()}
-    frame = comparisons(df, experiments, renamed)
+    frame = comparisons(df, experiments, sweeps)
     atomic_write(out["comparisons_csv"], lambda tmp: frame.to_csv(tmp, index=False))
     stored = pd.read_csv(out["comparisons_csv"])
     atomic_write_text(out["comparisons_md"], render_comparisons_markdown(stored))

@@ -1,12 +1,13 @@
 """Every paired comparison of a dataset's experiments, as one long-form frame.
 
-``comparisons(df, experiments, sweeps)`` runs ``spl_al.report.stats.pairwise`` at each
-point the tables show: the budget table's rounds and the area under the budget curve
-over the query rounds (AUBC, rounds >= 1: round 0 holds the same labels for every
-method; ``span`` says which rounds and ratios it covers), each MSPPP level at the
-levels round, the ablation round, and each swept parameter at its round. One row per
-(point, pair of methods), in percentage points (metric x 100);
-``tables/comparisons.csv`` is this frame and the claims read it.
+``spl_al.report.table_kinds.comparisons(df, experiments, sweeps)`` gathers each table
+kind's rows (``budget_rows``, ``level_rows``, ...), which run
+``spl_al.report.stats.pairwise`` at each point the tables show: the budget table's
+rounds and the area under the budget curve over the query rounds (AUBC, rounds >= 1:
+round 0 holds the same labels for every method; ``span`` says which rounds and ratios
+it covers), each MSPPP level at the levels round, the ablation round, and each swept
+parameter at its round. One row per (point, pair of methods), in percentage points
+(metric x 100); ``tables/comparisons.csv`` is this frame and the claims read it.
 
 Columns: experiment, point, parameter, round, n_labeled, method_a, method_b, value_a,
 value_b, n, mean_a, mean_b, diff (mean of A - B over paired seeds), sd_diff (sd of the
@@ -23,7 +24,7 @@ import numpy as np
 import pandas as pd
 
 from spl_al.report.display import LEVEL_LABELS, METRIC_LABELS, format_ratio, method_label
-from spl_al.report.records import LEVELS, one_dataset
+from spl_al.report.records import LEVELS
 from spl_al.report.stats import aubc_per_seed, pairwise, query_rounds, rule_text, span_text
 
 COLUMNS = (
@@ -75,24 +76,9 @@ def _n_labeled(d: pd.DataFrame, round_: int) -> int | None:
     return int(at.median()) if not at.empty else None
 
 
-def comparisons(
-    df: pd.DataFrame,
-    experiments: Mapping,
-    sweeps: Mapping | None = None,
-    *,
-    metric_scale: float = 100,
-    dataset: str | None = None,
-) -> pd.DataFrame:
-    """Paired comparisons of one dataset's experiments (see the module docstring).
-
-    ``experiments``: the dataset's ``experiments`` config (budget, levels, ablation,
-    sensitivity). ``sweeps``: parameter -> {value: method} (``sweep_table_spec``), with
-    the parameter ``m`` or ``n_variants`` for M. Experiments that are not configured,
-    or whose methods have no records, give no rows.
-    """
-    d = one_dataset(df, dataset)
-    rows = _budget_rows(d, experiments) + _ablation_rows(d, experiments)
-    rows += _sensitivity_rows(d, experiments, sweeps)
+def comparisons_frame(d: pd.DataFrame, rows: list[dict], *, metric_scale: float = 100):
+    """The comparisons frame (``COLUMNS``) of one dataset's records ``d`` from comparison
+    rows (``budget_rows`` and its kin), differences scaled by ``metric_scale``."""
     frame = pd.DataFrame(rows, columns=[c for c in COLUMNS if c not in ("dataset", "metric")])
     scale = float(metric_scale)
     for col in _SCALED:
@@ -108,9 +94,8 @@ def comparisons(
     return frame[list(COLUMNS)]
 
 
-def _budget_rows(d: pd.DataFrame, experiments: Mapping) -> list[dict]:
-    """The budget experiment's comparisons at each round and over its AUBC, and the
-    per-level ones at the levels round."""
+def budget_rows(d: pd.DataFrame, experiments: Mapping) -> list[dict]:
+    """The budget experiment's comparisons at each round and over its AUBC."""
     budget = experiments.get("budget")
     if not budget:
         return []
@@ -131,24 +116,30 @@ def _budget_rows(d: pd.DataFrame, experiments: Mapping) -> list[dict]:
     curves = query_rounds(d[d["method"].isin(methods)], int(budget["rounds"]))
     area = aubc_per_seed(curves).rename(columns={"aubc": "value"})
     rows += _rows(area, methods, experiment="budget", point="AUBC", span=span_text(curves))
-
-    levels = experiments.get("levels")
-    if levels:
-        r = int(levels["round"])
-        for level in LEVELS:
-            rows += _rows(
-                _values(d, methods, r, f"level_{level}"),
-                methods,
-                experiment="levels",
-                point=f"{LEVEL_LABELS[level]} at round {r}",
-                parameter=level,
-                round=r,
-                n_labeled=_n_labeled(d, r),
-            )
     return rows
 
 
-def _ablation_rows(d: pd.DataFrame, experiments: Mapping) -> list[dict]:
+def level_rows(d: pd.DataFrame, experiments: Mapping) -> list[dict]:
+    """The budget experiment's methods compared per MSPPP level at the levels round."""
+    budget, levels = experiments.get("budget"), experiments.get("levels")
+    if not (budget and levels):
+        return []
+    rows: list[dict] = []
+    methods, r = list(budget["methods"]), int(levels["round"])
+    for level in LEVELS:
+        rows += _rows(
+            _values(d, methods, r, f"level_{level}"),
+            methods,
+            experiment="levels",
+            point=f"{LEVEL_LABELS[level]} at round {r}",
+            parameter=level,
+            round=r,
+            n_labeled=_n_labeled(d, r),
+        )
+    return rows
+
+
+def ablation_rows(d: pd.DataFrame, experiments: Mapping) -> list[dict]:
     """The ablation's comparisons at its round."""
     ablation = experiments.get("ablation")
     if not ablation:
@@ -164,7 +155,7 @@ def _ablation_rows(d: pd.DataFrame, experiments: Mapping) -> list[dict]:
     )
 
 
-def _sensitivity_rows(d: pd.DataFrame, experiments: Mapping, sweeps: Mapping | None) -> list:
+def sensitivity_rows(d: pd.DataFrame, experiments: Mapping, sweeps: Mapping | None) -> list:
     """Each swept parameter's comparisons between its values, at the sweep's round."""
     sensitivity = experiments.get("sensitivity")
     if not (sensitivity and sweeps):

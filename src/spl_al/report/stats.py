@@ -47,8 +47,6 @@ import math
 
 import numpy as np
 import pandas as pd
-from scipy.stats import nct
-from scipy.stats import t as student_t
 
 LEVEL = 0.05
 """Two-sided level of the test; the interval is at 1 - LEVEL (95%)."""
@@ -124,6 +122,9 @@ def t_interval(d, level: float = LEVEL) -> tuple[float, float]:
     n = d.size
     if n < 2:
         return math.nan, math.nan
+    # scipy.stats takes 0.7 s to import, and parsing the workflow imports this module
+    from scipy.stats import t as student_t
+
     half = student_t.ppf(1 - level / 2, n - 1) * d.std(ddof=1) / math.sqrt(n)
     return float(d.mean() - half), float(d.mean() + half)
 
@@ -255,6 +256,10 @@ def t_power(n, effect: float, level: float = LEVEL) -> np.ndarray:
     c = t_{1-level/2, n-1}, lam = sqrt(n) |effect| and F the noncentral t CDF.
     """
     n = np.asarray(n, dtype=float)
+    # scipy.stats takes 0.7 s to import, and parsing the workflow imports this module
+    from scipy.stats import nct
+    from scipy.stats import t as student_t
+
     c = student_t.ppf(1 - level / 2, n - 1)
     lam = np.sqrt(n) * abs(effect)
     return 1 - nct.cdf(c, n - 1, lam) + nct.cdf(-c, n - 1, lam)

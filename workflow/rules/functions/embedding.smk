@@ -38,11 +38,7 @@ def embedding_outputs(dataset):
         return []
     exps = embedding_entry(dataset).get("experiments") or {}
     base = f"{RESULTS}/{dataset}/embedding"
-    kinds = [
-        t
-        for t in ("budget", "levels", "ablation", "sensitivity")
-        if t in exps and (t != "levels" or has_levels(dataset))
-    ]
+    kinds = table_names(exps, has_levels=has_levels(dataset))
     out = [f"{base}/tables/{t}.{ext}" for t in kinds for ext in ("csv", "md", "tex")]
     out += [f"{base}/tables/summary.json", f"{base}/encoder.card.json"]
     if "budget" in exps:

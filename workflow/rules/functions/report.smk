@@ -45,8 +45,7 @@ def dataset_outputs(dataset):
 
 
 def dataset_tables(dataset):
-    """The tables a dataset's experiments ask for (budget, levels, ablation,
-    sensitivity); no levels table for images without MSPPP levels."""
+    """The tables a dataset's experiments ask for (spl_al.report.table_kinds); none
+    that needs MSPPP levels for images without them."""
     exps = config["datasets"][dataset].get("experiments", {})
-    kinds = ("budget", "levels", "ablation", "sensitivity")
-    return [t for t in kinds if t in exps and (t != "levels" or has_levels(dataset))]
+    return table_names(exps, has_levels=has_levels(dataset))
