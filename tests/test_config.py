@@ -334,7 +334,7 @@ def test_a_reused_default_name_lists_every_key_it_inherited():
         ({"only_datasets": "real_cls"}, r"config key 'only_datasets' is 'real_cls'; expected a"),
         (
             {"only_datasets": ["mine"], "datasets": {"mine": {"task": "classification"}}},
-            r"config key 'datasets.mine.source' is missing; expected one of synthetic",
+            r"config key 'datasets.mine.source' is missing; expected a dataset source",
         ),
         (
             {d: None for d in ["real_cls", "synth_cls", "street_seg", "street_pc"]},

@@ -15,7 +15,6 @@ import numpy as np
 import pytest
 import yaml
 
-from spl_al import config
 from spl_al.data import LEVELS, Dataset, sources
 from spl_al.experiment.data_steps import make_dataset
 
@@ -174,9 +173,7 @@ def test_every_source_has_cases_and_every_config_names_the_registry():
     )
     schema = yaml.safe_load((ROOT / "config" / "schema.yaml").read_text())
     enum = schema["$defs"]["dataset"]["properties"]["source"]["enum"]
-    assert sorted(enum) == sorted(config.SOURCES) == sources.names(), (
-        "config/schema.yaml's source enum and spl_al.config.SOURCES list the registry"
-    )
+    assert sorted(enum) == sources.names(), "config/schema.yaml's source enum lists the registry"
 
 
 @pytest.mark.parametrize(("name", "make"), case_params())

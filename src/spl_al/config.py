@@ -49,7 +49,6 @@ def is_standin(entry: dict) -> bool:
 
 
 ONLY_DATASETS = "only_datasets"
-SOURCES = ("synthetic", "folder", "unlabeled", "captures")
 
 
 def _leaves(entry: dict, prefix: str = "") -> dict:
@@ -121,9 +120,9 @@ def select_datasets(config: dict, user: dict) -> dict[str, dict]:
     for name, entry in datasets.items():
         if not isinstance(entry, dict) or "source" not in entry:
             raise ValueError(
-                f"config key 'datasets.{name}.source' is missing; expected one of "
-                f"{', '.join(SOURCES)} (a new dataset gives task, source, variants, al, "
-                "train and experiments itself)."
+                f"config key 'datasets.{name}.source' is missing; expected a dataset "
+                "source (`source` in docs/configuration.md; a new dataset gives task, "
+                "source, variants, al, train and experiments itself)."
             )
     if only is None or ONLY_DATASETS not in user:
         return {}

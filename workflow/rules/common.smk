@@ -6,8 +6,8 @@ from pathlib import Path
 from snakemake.logging import logger
 from snakemake.settings.types import DeploymentMethod, ExecMode
 
-from spl_al.config import dataset_precision, is_standin, train_setup, training_notes
-from spl_al.data.external import folder_has_levels
+from spl_al.config import dataset_precision, train_setup, training_notes
+from spl_al.data.sources import has_levels as source_has_levels, source_kind
 from spl_al.warm import client as warm_client
 from spl_al.experiment.overview import jobs_line, plan_text
 from spl_al.report.table_kinds import TABLE_KINDS, table_names
@@ -47,8 +47,13 @@ HUMAN = [d for d in DATASETS if config["datasets"][d].get("oracle") == "human"]
 SIMULATED = [d for d in DATASETS if d not in HUMAN]
 
 
-# Datasets made from raw photon captures (workflow/rules/captures.smk).
-CAPTURES = [d for d in DATASETS if config["datasets"][d]["source"] == "captures"]
+# Datasets made from raw photon captures (workflow/rules/captures.smk): their source
+# reads the folder that rule captures_release makes.
+CAPTURES = [
+    d
+    for d in DATASETS
+    if source_kind(config["datasets"][d]["source"]).release_rule == "captures_release"
+]
 
 
 def res(rule, key, default):
@@ -162,15 +167,9 @@ def labeled_in_round(wildcards, r):
 
 
 def has_levels(dataset):
-    """Whether the dataset's images carry MSPPP levels: synthetic data and stand-ins do,
-    a folder only when its files hold them or ``levels_file`` assigns them; captures get
-    theirs from their own photons."""
-    entry = config["datasets"][dataset]
-    if entry["source"] == "captures":
-        return True
-    if entry["source"] == "synthetic" or is_standin(entry) or entry.get("levels_file"):
-        return True
-    return folder_has_levels(entry["path"], entry.get("depth_key", "depth_ssp"))
+    """Whether the dataset's images carry MSPPP levels (its source's trait, else its
+    files: spl_al.data.sources.has_levels)."""
+    return source_has_levels(config["datasets"][dataset])
 
 
 NO_LEVELS_NOTE = (

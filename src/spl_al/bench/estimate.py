@@ -32,7 +32,7 @@ from pathlib import Path
 
 from spl_al.bench.projection import merged_config, method_variants, split_sizes
 from spl_al.bench.timing import markdown_table
-from spl_al.config import is_standin
+from spl_al.data.sources import is_synthesised
 
 ROOT = Path(__file__).resolve().parents[3]
 
@@ -122,7 +122,7 @@ def data_seconds_per_image(entry: dict, tmp: Path) -> tuple[float, float]:
     from spl_al.experiment.data_steps import make_dataset
 
     mini, n = _mini_entry(entry)
-    mini["source"] = "synthetic" if mini["source"] == "folder" else mini["source"]
+    mini["source"] = "synthetic"  # a stand-in is synthesised as a procedural set is
     start = time.perf_counter()
     make_dataset(mini, tmp / "mini.npz")
     observed = (time.perf_counter() - start) / n
@@ -331,7 +331,7 @@ def estimate_config(config: dict, jobs: int = 2, steps: int = STEPS, log=print) 
     rows, total_core, total_jobs = [], 0.0, FIXED_JOBS
     with tempfile.TemporaryDirectory() as tmp:
         for dataset, entry in config["datasets"].items():
-            if entry.get("source") != "synthetic" and not is_standin(entry):
+            if not is_synthesised(entry):
                 log(f"{dataset}: source {entry.get('source')!r} is not estimated (its size "
                     "is known only from its files).")  # fmt: skip
                 continue

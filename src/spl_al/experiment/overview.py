@@ -1,4 +1,4 @@
-"""The plan of a run, printed before its first job (no torch, no data: cheap to import).
+"""The plan of a run, printed before its first job (no torch, no data read: cheap to import).
 
 Per dataset: its source, image shape, task and oracle, and per experiment the methods,
 seeds, rounds and labeled budgets; which keys a dataset took from config/config.yaml
@@ -9,6 +9,7 @@ when ``only_datasets`` reuses a default's name; the results folder. The workflow
 from __future__ import annotations
 
 from spl_al.config import is_standin
+from spl_al.data.sources import is_synthesised, source_kind
 from spl_al.experiment.plan import experiments_of, labeled_at, sweep_table_spec
 from spl_al.report.table_kinds import TABLE_KINDS, TableContext
 
@@ -19,11 +20,10 @@ DEFAULT_SHAPES = {"classification": (64, 64), "segmentation": (64, 256)}
 def image_shape(entry: dict) -> str:
     """What shape a dataset's images take, in words."""
     shape = (entry.get("synthesis") or {}).get("image_shape")
-    source = entry.get("source")
-    if source == "synthetic" or is_standin(entry):
+    if is_synthesised(entry):
         rows, cols = shape or DEFAULT_SHAPES.get(entry.get("task"), ("?", "?"))
         return f"{rows}x{cols} images"
-    what = "captures" if source == "captures" else "files"
+    what = source_kind(entry.get("source")).images
     if shape:
         return f"images resized to {shape[0]}x{shape[1]} (synthesis.image_shape)"
     return f"images as the {what} give them"

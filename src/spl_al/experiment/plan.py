@@ -14,6 +14,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 
+from spl_al.data.sources import check_entry, is_synthesised
 from spl_al.report.table_kinds import TABLE_KINDS, TableContext
 
 SWEEP_PARAMETERS = {"n_cand": "ncand", "alpha": "alpha", "n_variants": "m"}
@@ -357,9 +358,7 @@ def train_pool_size(entry: dict) -> int | None:
     an unlabeled folder: knowable only by reading the data). Mirrors
     ``spl_al.data.procedural.stratified_split``: round(test_fraction * n_c) of each
     class go to test."""
-    from spl_al.config import is_standin
-
-    if entry.get("source") != "synthetic" and not is_standin(entry):
+    if not is_synthesised(entry):
         return None
     syn = entry.get("synthesis") or {}
     test_fraction = float(syn.get("test_fraction", 0.3))
@@ -440,16 +439,8 @@ def check_plan(config: dict) -> None:
     (where the config fixes the pool's size)."""
     specs = method_specs(config)
     check_strategies(config, specs)
-    from spl_al.config import NO_PATH, is_standin
-
     for dataset, entry in config["datasets"].items():
-        if entry.get("source") == "folder" and not entry.get("path") and not is_standin(entry):
-            raise ValueError(f"config key 'datasets.{dataset}.path': {NO_PATH}")
-        if entry.get("source") == "unlabeled" and entry.get("oracle") != "human":
-            raise ValueError(
-                f"config key 'datasets.{dataset}.oracle': an unlabeled folder has no labels "
-                "to simulate the oracle with; set oracle: human."
-            )
+        check_entry(dataset, entry)
         _check_framework_keys(dataset, entry)
         runs = {}
         for framework in FRAMEWORKS:

@@ -23,27 +23,75 @@ The contract (``tests/test_sources.py`` checks every registered source against i
 
 ``build_dataset(entry, release_dir=...)`` dispatches on ``entry["source"]``; an unknown
 source is one sentence naming the known ones.
+
+What the plan, the workflow and the estimate know of a source without building it are
+its traits, given to ``register`` and kept on its ``SourceKind``: whether an entry's
+images are synthesised from its ``synthesis`` (their number is then known from the
+config), whether they carry MSPPP levels, the workflow rule that makes its
+``release_dir``, what the plan calls its images, and the entry it refuses before any
+job runs (``check_entry``).
 """
 
 from __future__ import annotations
 
 from collections.abc import Callable
+from dataclasses import dataclass
 from pathlib import Path
 
 from spl_al.data.dataset import Dataset
+from spl_al.data.external import folder_has_levels
 
 Source = Callable[..., Dataset]  # build(entry, *, release_dir=None) -> Dataset
 
-_REGISTRY: dict[str, Source] = {}
+
+def _never(_entry: dict) -> bool:
+    return False
 
 
-def register(name: str) -> Callable[[Source], Source]:
-    """Decorator: add a source's ``build(entry, *, release_dir=None)`` under ``name``."""
+def always(_entry: dict) -> bool:
+    """The trait holds for every entry."""
+    return True
+
+
+def _from_files(_entry: dict) -> bool | None:
+    return None
+
+
+def _accepts(_entry: dict) -> tuple[str, str] | None:
+    return None
+
+
+@dataclass(frozen=True)
+class SourceKind:
+    """A registered source: its ``build`` and its traits.
+
+    ``synthesised(entry)``: the images are made from the entry's ``synthesis`` (a
+    procedural set or a stand-in), so their number is the config's. ``levels(entry)``:
+    whether they carry MSPPP levels, None when only the files can tell
+    (``has_levels``). ``release_rule``: the workflow rule that makes ``release_dir``
+    first, if any. ``images``: what the plan calls them. ``check(entry)``: (key,
+    problem) of an entry the config is refused for, else None."""
+
+    name: str
+    build: Source
+    synthesised: Callable[[dict], bool] = _never
+    levels: Callable[[dict], bool | None] = _from_files
+    release_rule: str | None = None
+    images: str = "files"
+    check: Callable[[dict], tuple[str, str] | None] = _accepts
+
+
+_REGISTRY: dict[str, SourceKind] = {}
+
+
+def register(name: str, **traits) -> Callable[[Source], Source]:
+    """Decorator: add a source's ``build(entry, *, release_dir=None)`` under ``name``,
+    with its ``SourceKind`` traits."""
 
     def add(build: Source) -> Source:
         if not name or name in _REGISTRY:
             raise ValueError(f"dataset source name {name!r} is empty or already registered.")
-        _REGISTRY[name] = build
+        _REGISTRY[name] = SourceKind(name, build, **traits)
         return build
 
     return add
@@ -54,14 +102,41 @@ def names() -> list[str]:
     return sorted(_REGISTRY)
 
 
-def get(name: str) -> Source:
-    """The ``build`` function of the source ``name``; a ValueError naming the known ones."""
+def source_kind(name: str) -> SourceKind:
+    """The registered source ``name``; a ValueError naming the known ones."""
     if name not in _REGISTRY:
         raise ValueError(
             f"config key 'source': {name!r} is not a dataset source; expected one of "
             f"{', '.join(names())}."
         )
     return _REGISTRY[name]
+
+
+def get(name: str) -> Source:
+    """The ``build`` function of the source ``name``; a ValueError naming the known ones."""
+    return source_kind(name).build
+
+
+def is_synthesised(entry: dict) -> bool:
+    """Whether an entry's images are synthesised from its ``synthesis`` options."""
+    return source_kind(entry.get("source")).synthesised(entry)
+
+
+def has_levels(entry: dict) -> bool:
+    """Whether an entry's images carry MSPPP levels: its source's trait, else (a folder
+    of files) whether its first ``.npz`` holds them."""
+    known = source_kind(entry.get("source")).levels(entry)
+    if known is not None:
+        return known
+    return folder_has_levels(entry["path"], entry.get("depth_key", "depth_ssp"))
+
+
+def check_entry(dataset: str, entry: dict) -> None:
+    """Refuse, in one sentence naming the key, an entry its source cannot build."""
+    refused = source_kind(entry.get("source")).check(entry)
+    if refused:
+        key, problem = refused
+        raise ValueError(f"config key 'datasets.{dataset}.{key}': {problem}")
 
 
 def synthesis_options(entry: dict) -> dict:

@@ -14,7 +14,7 @@ from pathlib import Path
 
 from spl_al.data.dataset import Dataset
 from spl_al.data.sources import folder, unlabeled
-from spl_al.data.sources.base import register
+from spl_al.data.sources.base import always, register
 
 
 def as_folder_entry(entry: dict, release_dir) -> dict:
@@ -38,7 +38,7 @@ def as_folder_entry(entry: dict, release_dir) -> dict:
     }
 
 
-@register("captures")
+@register("captures", levels=always, release_rule="captures_release", images="captures")
 def build(entry: dict, *, release_dir=None) -> Dataset:
     """Load the reconstructions in ``release_dir`` as a folder or unlabeled dataset."""
     as_folder = as_folder_entry(entry, release_dir)

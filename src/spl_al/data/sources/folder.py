@@ -17,7 +17,16 @@ from spl_al.data.sources.base import register, synthesis_options
 from spl_al.data.sources.synthetic import synthesize
 
 
-@register("folder")
+def _levels(entry: dict) -> bool | None:
+    """A stand-in's images and a ``levels_file``'s assignment carry levels; else the files."""
+    return True if is_standin(entry) or entry.get("levels_file") else None
+
+
+def _check(entry: dict) -> tuple[str, str] | None:
+    return ("path", NO_PATH) if not entry.get("path") and not is_standin(entry) else None
+
+
+@register("folder", synthesised=is_standin, levels=_levels, check=_check)
 def build(entry: dict, *, release_dir=None) -> Dataset:
     """Load the folder at ``path``, or the synthetic stand-in (``release_dir`` is not used)."""
     if not entry.get("path"):

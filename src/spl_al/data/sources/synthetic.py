@@ -8,7 +8,7 @@ from __future__ import annotations
 
 from spl_al.data.dataset import Dataset
 from spl_al.data.procedural import make_classification_dataset, make_segmentation_dataset
-from spl_al.data.sources.base import register, synthesis_options
+from spl_al.data.sources.base import always, register, synthesis_options
 
 
 def synthesize(entry: dict) -> Dataset:
@@ -21,7 +21,7 @@ def synthesize(entry: dict) -> Dataset:
     return make(**synthesis_options(entry))
 
 
-@register("synthetic")
+@register("synthetic", synthesised=always, levels=always)
 def build(entry: dict, *, release_dir=None) -> Dataset:
     """Synthesize the dataset (``release_dir`` is not used)."""
     return synthesize(entry)

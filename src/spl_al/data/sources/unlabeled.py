@@ -14,7 +14,20 @@ from spl_al.data.sources.base import register, synthesis_options
 from spl_al.data.unlabeled_folder import load_unlabeled_folder
 
 
-@register("unlabeled")
+def _levels(entry: dict) -> bool | None:
+    return True if entry.get("levels_file") else None
+
+
+def _check(entry: dict) -> tuple[str, str] | None:
+    if entry.get("oracle") == "human":
+        return None
+    return (
+        "oracle",
+        "an unlabeled folder has no labels to simulate the oracle with; set oracle: human.",
+    )
+
+
+@register("unlabeled", levels=_levels, check=_check)
 def build(entry: dict, *, release_dir=None) -> Dataset:
     """Load the unlabeled folder at ``path`` (``release_dir`` is not used)."""
     if not entry.get("path") or not Path(entry["path"]).is_dir():
