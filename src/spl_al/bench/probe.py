@@ -171,9 +171,12 @@ def segmentation_probe(dataset, labeled, held_out, *, dense, seed: int) -> float
 
 
 def compare_segmentation(dataset, entry: dict, *, seeds=SEEDS, log=print):
-    """One row per budget of a segmentation entry: the U-Net (the config's recipe), the
-    per-pixel linear reference on local depth features alone, and the same with a
-    frozen encoder's dense features (``embedding.encoder``, trained on the fit part)."""
+    """One row per budget of a segmentation entry: its network (the config's recipe: the
+    U-Net per pixel, PointNet++ per point), the per-pixel linear reference on local
+    depth features alone, and the same with a frozen encoder's dense features
+    (``embedding.encoder``, trained on the fit part). A point cloud's points are its
+    scan's valid pixels, so the per-pixel heads are per-point heads there, scored by
+    the same mIoU over valid pixels as the network."""
     from spl_al.bench.learnability import learner_score, linear_reference, tuning_split
     from spl_al.experiment.plan import labeled_at
     from spl_al.pool import initial_labeled_set
@@ -189,7 +192,8 @@ def compare_segmentation(dataset, entry: dict, *, seeds=SEEDS, log=print):
     rows = []
     for r in range(rounds):
         n = labeled_at(entry["al"], r)
-        row = {"n": n, "unet": [], "pixel_linear": [], "pixel_linear_encoder": []}
+        network = entry["train"]["model"].get("arch", "unet")
+        row = {"n": n, network: [], "pixel_linear": [], "pixel_linear_encoder": []}
         for seed in seeds:
             labeled = fit_idx[initial_labeled_set(len(fit_idx), n, seed)]
             row["pixel_linear"].append(linear_reference(dataset, labeled, held_out, seed))
@@ -197,7 +201,7 @@ def compare_segmentation(dataset, entry: dict, *, seeds=SEEDS, log=print):
                 segmentation_probe(dataset, labeled, held_out, dense=dense, seed=seed)
             )
             recipe = {"model_cfg": entry["train"]["model"], "fit_cfg": entry["train"]["fit"]}
-            row["unet"].append(
+            row[network].append(
                 learner_score(dataset, labeled, held_out, **recipe, seed=seed, variants=False)
             )
         log(f"  n={n}: " + ", ".join(f"{k} {np.mean(v):.3f}" for k, v in row.items() if k != "n"))
