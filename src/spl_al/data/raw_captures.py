@@ -34,45 +34,44 @@ _RELEASE_KEYS = ("depth_ssp", "intensity", "msppp", "sbr", "pulse_sigma_s", "bin
 
 @dataclass(frozen=True)
 class CaptureOptions:
-    """How a dataset's captures are read and reconstructed (config ``captures:``).
+    """How a dataset's captures are read and reconstructed (config ``captures:``, one
+    flat mapping: the reading keys ``READ_KEYS`` and those below).
 
     Attributes:
+        reading: how each file is read (``spl_al.photon.io.ReadOptions``: format,
+            time_unit, bin_width_ps, pulse_sigma_ps, key, time_axis, channel), the
+            same options the real-capture pictures and the command line take.
         method: reconstruction method ("pooled", "lmf", or "sspi" with weights).
-        format: capture format for ``load_capture`` ("auto" detects it per file).
-        time_unit: unit of timestamps in the files ("ps").
-        bin_width_ps: bin timestamps at this width / the width of files that state none.
-        pulse_sigma_ps: instrument response sigma; None = the file's, else estimated.
-        key, time_axis, channel: reader options (``spl_al.photon.io``).
         level_split: "tertiles" or "edges" (module docstring).
         level_edges: [low|medium, medium|high] MSPPP edges for ``level_split: edges``.
         labels_file: CSV ``file,label`` giving each capture's class (relative paths).
         shards: reconstruction jobs.
     """
 
+    reading: ReadOptions = field(default_factory=ReadOptions)
     method: str = "pooled"
-    format: str = "auto"
-    time_unit: str = "ps"
-    bin_width_ps: float | None = None
-    pulse_sigma_ps: float | None = None
-    key: str | None = None
-    time_axis: int | None = None
-    channel: int | None = None
     level_split: str = "tertiles"
     level_edges: list[float] = field(default_factory=lambda: [3.0, 7.0])
     labels_file: str | None = None
     shards: int = 2
 
     @classmethod
+    def option_keys(cls) -> tuple[str, ...]:
+        """The keys of a ``captures:`` mapping: the reading keys, then the others."""
+        return (*READ_KEYS, *(k for k in cls.__dataclass_fields__ if k != "reading"))
+
+    @classmethod
     def from_dict(cls, values: dict | None) -> CaptureOptions:
         """Options from the config's ``captures:`` mapping (missing keys take defaults)."""
         values = dict(values or {})
-        unknown = sorted(set(values) - set(cls.__dataclass_fields__))
+        unknown = sorted(set(values) - set(cls.option_keys()))
         if unknown:
             raise ValueError(
                 f"config key 'captures' has unknown options {unknown}; expected among "
-                f"{', '.join(cls.__dataclass_fields__)}."
+                f"{', '.join(cls.option_keys())}."
             )
-        options = cls(**values)
+        reading = ReadOptions(**{k: values.pop(k) for k in READ_KEYS if k in values})
+        options = cls(reading=reading, **values)
         if options.level_split not in LEVEL_SPLITS:
             raise ValueError(
                 f"captures.level_split must be one of {LEVEL_SPLITS}, got {options.level_split!r}."
@@ -83,11 +82,6 @@ class CaptureOptions:
                 f"captures.level_edges must be two MSPPP values 0 < a < b, got {edges!r}."
             )
         return options
-
-    @property
-    def reading(self) -> ReadOptions:
-        """The options of how each file is read (``READ_KEYS``)."""
-        return ReadOptions(**{name: getattr(self, name) for name in READ_KEYS})
 
     @property
     def pulse_sigma_s(self) -> float | None:
@@ -101,10 +95,6 @@ class CaptureOptions:
     def missing_timing(self, path, setting: str) -> str | None:
         """``ReadOptions.missing_timing`` of these options."""
         return self.reading.missing_timing(path, setting)
-
-    def load_kwargs(self) -> dict:
-        """Keyword arguments of ``load_capture``."""
-        return self.reading.load_kwargs()
 
 
 def capture_files(root, flat: bool = False) -> list[str]:

@@ -115,8 +115,6 @@ def read_frames(inputs, options: CaptureOptions, depth_key=RELEASE_DEPTH_KEY, we
 def capture_options(reconstruction: dict | None, overrides: dict | None = None) -> CaptureOptions:
     """The card's reconstruction settings with the command line's ``overrides`` on top
     (None values leave the card's)."""
-    values = {
-        k: v for k, v in (reconstruction or {}).items() if k in CaptureOptions.__dataclass_fields__
-    }
+    values = {k: v for k, v in (reconstruction or {}).items() if k in CaptureOptions.option_keys()}
     values.update({k: v for k, v in (overrides or {}).items() if v is not None})
     return CaptureOptions.from_dict(values)
