@@ -120,6 +120,9 @@ def defined_names(module: str) -> set[str]:
             targets = node.targets if isinstance(node, ast.Assign) else [node.target]
             for target in targets:
                 names |= {n.id for n in ast.walk(target) if isinstance(n, ast.Name)}
+            if any(isinstance(t, ast.Name) and t.id == "__all__" for t in targets):
+                # a package that loads its API on first use (PEP 562 __getattr__)
+                names |= {e.value for e in ast.walk(node.value) if isinstance(e, ast.Constant)}
         elif isinstance(node, (ast.If, ast.Try)):  # guarded imports and definitions
             for sub in ast.walk(node):
                 if isinstance(sub, (ast.Import, ast.ImportFrom)):
@@ -335,3 +338,19 @@ def test_every_workflow_step_names_a_function_that_exists():
         f"{m}:{f}" for m, f in sorted(steps) if m not in MODULES or f not in defined_names(m)
     ]
     assert not missing, missing
+
+
+def test_a_package_that_loads_its_api_on_first_use_gives_every_name_it_lists():
+    """``spl_al.training`` loads its names when first asked (job scripts import
+    ``spl_al.training.compute`` without torch); each one it lists must load, and be
+    the object itself, not a submodule of the same name."""
+    import importlib
+    import types
+
+    for module in MODULES:
+        tree = ast.parse(MODULES[module].read_text())
+        if not any(isinstance(n, ast.FunctionDef) and n.name == "__getattr__" for n in tree.body):
+            continue
+        package = importlib.import_module(module)
+        for name in package.__all__:
+            assert not isinstance(getattr(package, name), types.ModuleType), f"{module}.{name}"

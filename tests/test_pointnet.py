@@ -19,6 +19,9 @@ from spl_al.scoring import compute_inputs
 from spl_al.strategies import get
 from spl_al.strategies.duis import margin_and_inconsistency
 from spl_al.training import evaluate, predict, train
+from spl_al.training.compute import Compute
+
+CPU = Compute("cpu")
 
 SMALL = {"n_points": 128, "centres": (32, 8), "radii_m": (2.0, 6.0), "neighbours": 8, "width": 8}
 BACKENDS = ("kdtree", "torch")
@@ -177,8 +180,8 @@ def test_learns_a_toy_two_class_cloud(loss_at):
     depth, valid, labels = _toy_scenes(48, grid, seed=0)
     test_d, test_v, test_y = _toy_scenes(16, grid, seed=1)
     model = build_model("segmentation", 2, "pointnet2", grid=grid, loss_at=loss_at, **SMALL)
-    train(model, depth, valid, labels, cfg={**FIT, "log_every": 0}, seed=1, device="cpu")
-    metrics = evaluate(model, test_d, test_v, test_y, device="cpu")
+    train(model, depth, valid, labels, cfg={**FIT, "log_every": 0}, seed=1, compute=CPU)
+    metrics = evaluate(model, test_d, test_v, test_y, compute=CPU)
     assert metrics["pixel_accuracy"] >= 0.95, metrics
 
 
@@ -239,12 +242,12 @@ def test_training_is_deterministic_for_a_seed():
     for seed in (5, 5, 6):
         model = build_model("segmentation", 2, "pointnet2", grid=grid, **SMALL)
         states.append(
-            train(model, depth, valid, labels, cfg=fit, seed=seed, device="cpu").state_dict()
+            train(model, depth, valid, labels, cfg=fit, seed=seed, compute=CPU).state_dict()
         )
     assert all(torch.equal(states[0][k], states[1][k]) for k in states[0])
     assert not all(torch.equal(states[0][k], states[2][k]) for k in states[0])
     with pytest.raises(ValueError, match="tied to its scan grid"):
-        train(model, depth, valid, labels, cfg={**fit, "crop_width": 0.5}, seed=0, device="cpu")
+        train(model, depth, valid, labels, cfg={**fit, "crop_width": 0.5}, seed=0, compute=CPU)
 
 
 def test_fine_tuning_samples_points_from_the_training_seed_not_the_global_rng():
@@ -260,9 +263,7 @@ def test_fine_tuning_samples_points_from_the_training_seed_not_the_global_rng():
         torch.manual_seed(global_seed)  # the state a model is built in
         model = build_model("segmentation", 2, "pointnet2", grid=grid, **SMALL)
         model.load_state_dict(start)
-        states.append(
-            train(model, depth, valid, labels, cfg=fit, seed=5, device="cpu").state_dict()
-        )
+        states.append(train(model, depth, valid, labels, cfg=fit, seed=5, compute=CPU).state_dict())
     assert all(torch.equal(states[0][k], states[1][k]) for k in states[0])
 
 

@@ -11,6 +11,9 @@ from spl_al.models import build_model
 from spl_al.pool import Oracle, Pool, initial_labeled_set
 from spl_al.scoring import compute_inputs
 from spl_al.training import TrainConfig, flatten_groups, train
+from spl_al.training.compute import Compute
+
+CPU = Compute("cpu")
 
 
 def test_initial_labeled_set_depends_only_on_its_arguments():
@@ -78,7 +81,7 @@ def _one_al_round(depth, valid, oracle, labeled, seed):
     )
     model = build_model("classification", 3, width=4)
     cfg = TrainConfig(epochs=3, batch_size=16, log_every=0)
-    train(model, d, v, t, cfg=cfg, seed=seed, device="cpu", log=io.StringIO())
+    train(model, d, v, t, cfg=cfg, seed=seed, compute=CPU, log=io.StringIO())
     params = {"duis": {"n_cand": 8}, "diversity": {"n_cand": 8}, "skactiveml": {"cls": "TypiClust"}}
     built = {n: strategies.get(n, **params.get(n, {})) for n in strategies.names()}
     needs = set().union(*(s.needs for s in built.values()))
@@ -89,7 +92,7 @@ def _one_al_round(depth, valid, oracle, labeled, seed):
         valid=valid,
         unlabeled_idx=pool.unlabeled_idx,
         labeled_idx=pool.labeled_idx,
-        device="cpu",
+        compute=CPU,
     )
     return {
         name: s.select(inputs, 5, np.random.default_rng(seed)).tolist() for name, s in built.items()

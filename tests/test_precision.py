@@ -10,6 +10,7 @@ from al_synthetic import shapes_groups
 
 from spl_al.models import build_model
 from spl_al.training import TrainConfig, evaluate, predict, train
+from spl_al.training.compute import Compute
 from spl_al.training.precision import LossScaler, native_bf16, resolve_precision
 from spl_al.training.sgd import SGD
 
@@ -28,15 +29,17 @@ def test_fp16_off_cuda_and_unknown_names_are_refused():
         resolve_precision("fp16", CPU)
     with pytest.raises(ValueError, match="precision must be one of"):
         resolve_precision("half", CPU)
-    with pytest.raises(ValueError, match=r"TrainConfig\.precision must be one of"):
-        TrainConfig(precision="fp8")
+    with pytest.raises(ValueError, match="precision must be one of"):
+        Compute("cpu", precision="fp8").resolved()
+    with pytest.raises(ValueError, match=r"unknown .*precision"):
+        TrainConfig.from_dict({"precision": "fp32"})  # where a model runs is Compute's
 
 
 def _fit(precision: str, seed: int = 0):
     depth, valid, y = shapes_groups(48, n_groups=1, seed=2)
     model = build_model("classification", 3, width=4)
-    cfg = TrainConfig(**{**FAST.to_dict(), "precision": precision})
-    train(model, depth[:, 0], valid[:, 0], y, cfg=cfg, seed=seed, device="cpu", log=io.StringIO())
+    at = Compute("cpu", precision=precision)
+    train(model, depth[:, 0], valid[:, 0], y, cfg=FAST, seed=seed, compute=at, log=io.StringIO())
     return model, depth[:, 0], valid[:, 0], y
 
 
@@ -48,14 +51,14 @@ def test_bf16_training_is_deterministic_keeps_fp32_weights_and_learns():
     assert all(torch.equal(a.state_dict()[k], b.state_dict()[k]) for k in a.state_dict())
     # autocast really ran: the same seed at fp32 ends elsewhere
     assert any(not torch.equal(a.state_dict()[k], c.state_dict()[k]) for k in a.state_dict())
-    metrics = evaluate(a, d, v, y, device="cpu", precision="bf16")
+    metrics = evaluate(a, d, v, y, compute=Compute("cpu", precision="bf16"))
     assert metrics["accuracy"] > 0.8
 
 
 def test_bf16_prediction_is_float32_and_agrees_with_fp32():
     model, d, v, _ = _fit("fp32")
-    full = predict(model, d, v, device="cpu", precision="fp32")
-    half = predict(model, d, v, device="cpu", precision="bf16")
+    full = predict(model, d, v, compute=Compute("cpu"))
+    half = predict(model, d, v, compute=Compute("cpu", precision="bf16"))
     assert half.probs.dtype == np.float32 and half.features.dtype == np.float32
     np.testing.assert_allclose(half.probs.sum(axis=1), 1.0, atol=1e-5)
     assert np.mean(half.probs.argmax(1) == full.probs.argmax(1)) > 0.9
@@ -117,7 +120,6 @@ def test_the_run_config_records_the_precision_each_dataset_ran_at(tmp_path):
 
 
 def test_a_step_resolves_its_compute_once_into_a_device_and_a_concrete_precision():
-    from spl_al.experiment.step_args import Compute
     from spl_al.models.pointnet import PointNet2Seg
 
     cnn = Compute("cpu", 1, "auto").resolved(build_model("classification", 3, arch="smallcnn"))

@@ -10,7 +10,6 @@ from al_synthetic import shapes_groups
 
 from spl_al.data import Dataset
 from spl_al.experiment.round_steps import (
-    Compute,
     ModelFiles,
     RoundId,
     RoundStart,
@@ -21,6 +20,7 @@ from spl_al.experiment.round_steps import (
 from spl_al.models.configured import save_model
 from spl_al.strategies import StrategyInputs
 from spl_al.strategies.inputs import ARRAY_FIELDS
+from spl_al.training.compute import Compute
 
 SETUP = {
     "train": {
@@ -232,7 +232,7 @@ def test_the_same_weights_pick_the_same_groups_whatever_the_training_precision(t
     rounded = [
         compute_inputs(
             model, needs, depth_m=depth, valid=valid, unlabeled_idx=unlabeled,
-            labeled_idx=pool, device="cpu", precision=p,
+            labeled_idx=pool, compute=Compute("cpu", precision=p),
         )
         for p in ("bf16", "fp32")
     ]  # fmt: skip

@@ -13,6 +13,9 @@ from spl_al.strategies.duis import margin_and_inconsistency
 from spl_al.strategies.entropy import entropy_score
 from spl_al.strategies.margin import margin_score
 from spl_al.training import predict
+from spl_al.training.compute import Compute
+
+CPU = Compute("cpu")
 
 ALL_FIELDS = ("entropy", "margin", "gamma", "inconsistency", "features", "group_features")
 ALL_FIELDS += ("labeled_features", "grad_q", "grad_h", "grad_embedding")
@@ -61,7 +64,7 @@ def test_only_the_needed_parts_are_computed(cls_setup, name):
         valid=valid,
         unlabeled_idx=unl,
         labeled_idx=lab,
-        device="cpu",
+        compute=CPU,
     )
     present = {f for f in ALL_FIELDS if getattr(inputs, f) is not None}
     expected = {f for n in needs for f in NEEDS[n]} - {"grad_embedding"}  # classification: q, h
@@ -81,7 +84,7 @@ def test_classification_inputs_match_predict(cls_setup):
         valid=valid,
         unlabeled_idx=unl,
         labeled_idx=lab,
-        device="cpu",
+        compute=CPU,
         batch_size=7,
     )
     n, g = len(unl), depth.shape[1]
@@ -113,7 +116,7 @@ def test_segmentation_inputs_are_per_group_and_average_observed_valid_pixels():
         valid=valid,
         unlabeled_idx=unl,
         labeled_idx=lab,
-        device="cpu",
+        compute=CPU,
         batch_size=3,
     )
     n, hw = len(unl), 10 * 14

@@ -23,6 +23,7 @@ from spl_al.training import (
     summarise,
     train,
 )
+from spl_al.training.compute import Compute
 from spl_al.training.fit import (
     _soft_targets,
     balanced_class_weights,
@@ -30,6 +31,8 @@ from spl_al.training.fit import (
     random_crop_columns,
     random_shift,
 )
+
+CPU = Compute("cpu")
 
 FAST = TrainConfig(epochs=4, batch_size=32, lr=0.05, log_every=0)
 
@@ -49,11 +52,11 @@ def test_training_is_deterministic_for_a_seed():
         model = build_model("classification", 3, width=4, dropout=0.5)
         torch.manual_seed(100 + len(runs))
         before = torch.random.get_rng_state()
-        runs.append(train(model, d, v, y, cfg=FAST, seed=seed, device="cpu", log=io.StringIO()))
+        runs.append(train(model, d, v, y, cfg=FAST, seed=seed, compute=CPU, log=io.StringIO()))
         assert torch.equal(torch.random.get_rng_state(), before)
     assert _same_weights(runs[0], runs[1])
     assert not _same_weights(runs[0], runs[2])
-    p0, p1 = predict(runs[0], d, v, device="cpu"), predict(runs[1], d, v, device="cpu")
+    p0, p1 = predict(runs[0], d, v, compute=CPU), predict(runs[1], d, v, compute=CPU)
     assert np.array_equal(p0.probs, p1.probs) and np.array_equal(p0.features, p1.features)
 
 
@@ -63,7 +66,7 @@ def test_classifier_learns_a_separable_task_with_variants(tmp_path):
     assert d.shape == (420, 16, 16) and np.array_equal(t, np.repeat(y[:140], 3))
     model = build_model("classification", 3, width=8)
     cfg = TrainConfig(epochs=8, batch_size=64, lr=0.05, log_every=4)
-    train(model, d, v, t, cfg=cfg, seed=0, device="cpu", log=tmp_path / "train.log")
+    train(model, d, v, t, cfg=cfg, seed=0, compute=CPU, log=tmp_path / "train.log")
     lines = (tmp_path / "train.log").read_text().splitlines()
     assert lines[0].startswith("train classification") and any("epoch 8/8" in s for s in lines)
     levels = np.array(["high", "low"] * 30)
@@ -89,7 +92,7 @@ def test_segmentation_loss_ignores_invalid_pixels():
             t,
             cfg=cfg,
             seed=0,
-            device="cpu",
+            compute=CPU,
             log=io.StringIO(),
         )
         for t in (masks, scrambled)
@@ -127,7 +130,7 @@ def test_segmenter_learns_and_reports_miou(crop_width, balance):
     cfg = TrainConfig(
         epochs=30, batch_size=16, lr=0.05, log_every=0, crop_width=crop_width, balance=balance
     )
-    train(model, depth[:40, 0], valid[:40, 0], masks[:40], cfg=cfg, seed=0, device="cpu")
+    train(model, depth[:40, 0], valid[:40, 0], masks[:40], cfg=cfg, seed=0, compute=CPU)
     m = evaluate(model, depth[40:, 0], valid[40:, 0], masks[40:], levels=["medium"] * 20)
     assert m["miou"] > 0.6, m
     assert m["n_pixels"] == int((masks[40:] != IGNORE_INDEX).sum())
@@ -230,7 +233,7 @@ def test_train_rejects_bad_targets():
             y + 3,
             cfg=FAST,
             seed=0,
-            device="cpu",
+            compute=CPU,
             log=io.StringIO(),
         )
     with pytest.raises(ValueError, match="targets"):
@@ -241,7 +244,7 @@ def test_train_rejects_bad_targets():
             y[:3],
             cfg=FAST,
             seed=0,
-            device="cpu",
+            compute=CPU,
             log=io.StringIO(),
         )
     with pytest.raises(ValueError, match="groups must lie in"):
@@ -252,7 +255,7 @@ def test_train_rejects_bad_targets():
             y,
             cfg=FAST,
             seed=0,
-            device="cpu",
+            compute=CPU,
             log=io.StringIO(),
             groups=5,
         )
@@ -289,7 +292,7 @@ def test_train_takes_the_steps_of_its_policy():
         assert cfg.total_steps(12, 3) == steps
         log = io.StringIO()
         model = build_model("classification", 3, width=2)
-        train(model, depth[:, 0], valid[:, 0], y, cfg=cfg, seed=0, device="cpu", log=log, groups=3)
+        train(model, depth[:, 0], valid[:, 0], y, cfg=cfg, seed=0, compute=CPU, log=log, groups=3)
         assert f", {steps} steps (" in log.getvalue()
 
 
@@ -306,7 +309,7 @@ def test_steps_per_group_counts_the_labeled_groups_not_the_images():
             y,
             cfg=cfg,
             seed=0,
-            device="cpu",
+            compute=CPU,
             log=log,
             groups=groups,
         )
@@ -401,7 +404,7 @@ def test_training_with_every_augmentation_is_deterministic_and_learns():
             y[:140],
             cfg=cfg,
             seed=0,
-            device="cpu",
+            compute=CPU,
             log=io.StringIO(),
         )
         for _ in range(2)

@@ -35,12 +35,13 @@ JOBS = textwrap.dedent(
     def weights(path):
         import io, torch
         from spl_al.models import build_model
-        from spl_al.training import TrainConfig, train
+        from spl_al.training import Compute, TrainConfig, train
         torch.manual_seed(0)
         x = torch.rand(16, 32, 32).numpy() * 5  # see spl_al.training.precision: no 1x1 maps
         model = build_model("classification", 2, width=4)
-        cfg = TrainConfig(epochs=2, batch_size=8, log_every=0, precision="auto")
-        train(model, x, x > 0, [0, 1] * 8, cfg=cfg, seed=1, device="cpu", log=io.StringIO())
+        cfg = TrainConfig(epochs=2, batch_size=8, log_every=0)
+        at = Compute("cpu", precision="auto")
+        train(model, x, x > 0, [0, 1] * 8, cfg=cfg, seed=1, compute=at, log=io.StringIO())
         torch.save(model.state_dict(), path)
     """
 )

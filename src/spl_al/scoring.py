@@ -28,14 +28,13 @@ from torch import nn
 
 from spl_al.strategies.inputs import GROUP_NEEDS, StrategyInputs, as_index_array, check_needs
 from spl_al.strategies.scores import scores_from_outputs
-from spl_al.training.predict import iter_forward, pool_pixels
+from spl_al.training.compute import LOCAL, Compute
+from spl_al.training.forward import iter_forward, pool_pixels
 
 DEFAULT_BATCH_IMAGES = {"classification": 256, "segmentation": 16}
 
 
-def _group_outputs(
-    model, depth_m, valid, *, idx, n_images, device, pixel_features=False, precision="fp32"
-):
+def _group_outputs(model, depth_m, valid, *, idx, n_images, compute, pixel_features=False):
     """Forward the first ``n_images`` images of groups ``idx`` in one pass.
 
     Returns probs (b, G, units, C) float32, pixel features (b, G, units, d) (segmentation
@@ -45,9 +44,7 @@ def _group_outputs(
     b = len(idx)
     d = np.asarray(depth_m[idx, :n_images]).reshape(b * n_images, *depth_m.shape[2:])
     v = np.asarray(valid[idx, :n_images]).reshape(b * n_images, *depth_m.shape[2:])
-    ((_, probs, feats, vmask),) = iter_forward(
-        model, d, v, device=device, batch_size=len(d), precision=precision
-    )
+    ((_, probs, feats, vmask),) = iter_forward(model, d, v, compute=compute, batch_size=len(d))
     if model.task == "classification":
         return (
             probs.view(b, n_images, 1, -1).cpu().numpy(),
@@ -79,9 +76,8 @@ def compute_inputs(
     valid,
     unlabeled_idx,
     labeled_idx,
-    device: str | torch.device | None = None,
+    compute: Compute | None = None,
     batch_size: int | None = None,
-    precision: str = "fp32",
 ) -> StrategyInputs:
     """The inputs a strategy with ``needs`` selects from, computed with ``model``.
 
@@ -91,10 +87,10 @@ def compute_inputs(
         depth_m, valid: (N, G, H, W) images of every training group, observed image
             first, G = M + 1 (G = 1 without variants); numpy arrays or memory maps.
         unlabeled_idx, labeled_idx: disjoint training-set indices.
-        device: "auto"/None, "cpu" or "cuda".
+        compute: device and precision of the forward passes (``Compute``, resolved
+            once here for the model unless it is already; None: ``LOCAL``, fp32).
         batch_size: images per forward pass (default 256 for classification,
             16 for segmentation).
-        precision: of the forward passes (``spl_al.training.precision``).
 
     Returns:
         ``StrategyInputs`` with the index sets and exactly the needed parts.
@@ -111,6 +107,7 @@ def compute_inputs(
     for name, idx in (("unlabeled_idx", unl), ("labeled_idx", lab)):
         if idx.size and idx.max() >= n_train:
             raise ValueError(f"{name} must index the {n_train} training groups, found {idx.max()}.")
+    compute = (compute or LOCAL).resolved(model)
     task = model.task
     batch_size = batch_size or DEFAULT_BATCH_IMAGES[task]
     n_images = depth_m.shape[1] if needs & GROUP_NEEDS else 1
@@ -129,9 +126,8 @@ def compute_inputs(
             valid,
             idx=unl[s : s + per_batch],
             n_images=n_images,
-            device=device,
+            compute=compute,
             pixel_features=badge_pixels,
-            precision=precision,
         )
         for name, value in scores_from_outputs(
             needs, task, probs, feats, pix_feats=pix_feats, image_valid=image_valid
@@ -147,8 +143,7 @@ def compute_inputs(
                 valid,
                 idx=lab[s : s + batch_size],
                 n_images=1,
-                device=device,
-                precision=precision,
+                compute=compute,
             )
             add("labeled_features", outputs[2][:, 0])
     arrays = {}

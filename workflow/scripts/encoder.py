@@ -1,4 +1,4 @@
-from spl_al.experiment.step_args import Compute
+from spl_al.training.compute import Compute
 from spl_al.warm.server import run_job
 
 run_job(

@@ -1,4 +1,5 @@
-from spl_al.experiment.step_args import Compute, ModelFiles, RoundId, RoundStart
+from spl_al.experiment.step_args import ModelFiles, RoundId, RoundStart
+from spl_al.training.compute import Compute
 from spl_al.warm.server import run_job
 
 w = snakemake.wildcards

@@ -140,15 +140,16 @@ def learner_score(
     fit_cfg: dict,
     seed: int,
     variants: bool,
+    compute=None,
 ) -> float:
     """Accuracy (mIoU) on the observed images of samples ``held_out`` of the configured
     model trained on samples ``labeled`` (with their variants when ``variants``), as a
-    pipeline round trains it."""
+    pipeline round trains it, on ``compute`` (``Compute``; None: ``LOCAL``, fp32)."""
     from spl_al.models.configured import model_for
     from spl_al.training import evaluate
     from spl_al.training.groups import train_groups
 
-    model, fit, _ = train_groups(
+    model, _fit, _ = train_groups(
         dataset,
         labeled,
         given=dataset.labels[labeled],
@@ -156,15 +157,12 @@ def learner_score(
         fit={**fit_cfg, "log_every": 0},
         n_variants=dataset.n_variants if variants else 0,
         seed=seed,
+        compute=compute,
         log=_Null(),
     )
     val = np.asarray(held_out)
     metrics = evaluate(
-        model,
-        dataset.depth_m[val],
-        dataset.valid[val],
-        dataset.labels[val],
-        precision=fit.precision,
+        model, dataset.depth_m[val], dataset.valid[val], dataset.labels[val], compute=compute
     )
     return float(metrics["accuracy" if dataset.task == "classification" else "miou"])
 
@@ -192,10 +190,12 @@ def learning_curves(
     log=print,
     val_fraction: float = VALIDATION_FRACTION,
     val_seed: int = VALIDATION_SEED,
+    compute=None,
 ) -> list[dict]:
     """One row per budget: the budget and the validation scores of every seed (linear
     reference, learner on observed images, learner with variants), labeled sets drawn
-    from the fit part of ``tuning_split(dataset, val_fraction, val_seed)``."""
+    from the fit part of ``tuning_split(dataset, val_fraction, val_seed)``; the learner
+    on ``compute`` (``learner_score``)."""
     pool, held_out = tuning_split(dataset, val_fraction, val_seed)
     rows = []
     for size in budgets(len(pool), fractions):
@@ -210,7 +210,7 @@ def learning_curves(
             labeled = pool[initial_labeled_set(len(pool), size, seed)]
             start = time.perf_counter()
             row["linear"].append(linear_reference(dataset, labeled, held_out, seed))
-            recipe = {"model_cfg": model_cfg, "fit_cfg": fit_cfg, "seed": seed}
+            recipe = {"model_cfg": model_cfg, "fit_cfg": fit_cfg, "seed": seed, "compute": compute}
             row["observed"].append(
                 learner_score(dataset, labeled, held_out, **recipe, variants=False)
             )
@@ -295,6 +295,26 @@ def recipe_overrides(items: list[str]) -> dict:
     return out
 
 
+def add_compute_arguments(parser: argparse.ArgumentParser) -> None:
+    """``--precision`` and ``--threads``: where the learner trains (``compute_of``)."""
+    parser.add_argument(
+        "--precision",
+        choices=["fp32", "bf16", "fp16", "auto"],
+        default="fp32",
+        help="of the learner's training and scoring (default fp32)",
+    )
+    parser.add_argument("--threads", type=int, default=None, help="torch threads")
+
+
+def compute_of(args: argparse.Namespace):
+    """The ``Compute`` of ``--precision`` and ``--threads``, its threads applied."""
+    from spl_al.training.compute import Compute
+
+    compute = Compute(precision=args.precision, threads=args.threads)
+    compute.apply()
+    return compute
+
+
 def main(argv: list[str] | None = None) -> int:
     """Run the learnability benchmark on ``argv``'s datasets; print its tables; the exit code."""
     parser = argparse.ArgumentParser(prog="python -m spl_al.bench learnability")
@@ -321,8 +341,10 @@ def main(argv: list[str] | None = None) -> int:
         metavar="KEY=VALUE",
         help="override the recipe of every dataset, e.g. fit.mixup=0.4 model.width=32",
     )
+    add_compute_arguments(parser)
     args = parser.parse_args(argv)
     overrides = recipe_overrides(args.set)
+    compute = compute_of(args)
 
     import yaml
 
@@ -366,7 +388,7 @@ def main(argv: list[str] | None = None) -> int:
         )
         rows = learning_curves(
             data, model_cfg, fit_cfg, fractions=args.fractions, seeds=args.seeds,
-            val_fraction=args.val_fraction, val_seed=args.val_seed,
+            val_fraction=args.val_fraction, val_seed=args.val_seed, compute=compute,
         )  # fmt: skip
         lines += table_rows(name, rows)
     print()

@@ -67,7 +67,7 @@ def _case(label: str, shape, *, params: dict, batch: int, threads: int, steps: i
     import torch
 
     from spl_al.models import build_model, model_input
-    from spl_al.training import TrainConfig, train
+    from spl_al.training import Compute, TrainConfig, train
 
     torch.set_num_threads(threads)
     params = dict(params)
@@ -82,7 +82,9 @@ def _case(label: str, shape, *, params: dict, batch: int, threads: int, steps: i
         if device == "cuda":
             torch.cuda.synchronize()
         start = time.perf_counter()
-        train(model, depth, valid, labels, cfg=cfg, seed=0, device=device, log=io.StringIO())
+        train(
+            model, depth, valid, labels, cfg=cfg, seed=0, compute=Compute(device), log=io.StringIO()
+        )
         if device == "cuda":
             torch.cuda.synchronize()
         train_s = time.perf_counter() - start

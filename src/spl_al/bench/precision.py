@@ -139,6 +139,7 @@ def pick_agreement(results: Path, dataset: str) -> list[list[str]]:
     from spl_al.scoring import compute_inputs
     from spl_al.strategies import get
     from spl_al.strategies.inputs import GROUP_NEEDS
+    from spl_al.training.compute import Compute
 
     config = yaml.safe_load((results / "config.yaml").read_text())
     entry = config["datasets"][dataset]
@@ -173,8 +174,7 @@ def pick_agreement(results: Path, dataset: str) -> list[list[str]]:
                         valid=valid,
                         unlabeled_idx=unlabeled,
                         labeled_idx=labeled,
-                        device="cpu",
-                        precision=precision,
+                        compute=Compute("cpu", precision=precision),
                     )
                     rng = np.random.default_rng([seed, r])
                     batch = batch_of(entry["al"], r + 1, f"datasets.{dataset}.al.batch")

@@ -10,8 +10,8 @@ labeled sets of a few sizes of each dataset, this trains the configured learner
 
 and gives the validation set's own binomial standard error sqrt(p (1 - p) / n_val) (for
 segmentation, over validation images' mIoU it is not binomial; the column is left out).
-All in accuracy (mIoU) points, std over the runs (ddof 1), with the training recipe's
-precision (``--set fit.precision=fp32`` to compare).
+All in accuracy (mIoU) points, std over the runs (ddof 1), trained and scored at
+``--precision`` (default fp32; ``--threads`` torch threads).
 
 Validation, not test: the labeled sets come from the fit part of the training pool and
 every score is on its validation part, cut by ``spl_al.bench.learnability.tuning_split``
@@ -28,6 +28,8 @@ from pathlib import Path
 import numpy as np
 
 from spl_al.bench.learnability import (
+    add_compute_arguments,
+    compute_of,
     default_datasets,
     learner_score,
     recipe_overrides,
@@ -48,6 +50,7 @@ def spread_row(
     variants: bool,
     val_fraction: float = VALIDATION_FRACTION,
     val_seed: int = VALIDATION_SEED,
+    compute=None,
 ) -> dict:
     """Validation scores of ``size`` labeled groups of the fit part of
     ``tuning_split(dataset, val_fraction, val_seed)``: one draw x training seeds,
@@ -63,6 +66,7 @@ def spread_row(
             fit_cfg=fit_cfg,
             seed=seed,
             variants=variants,
+            compute=compute,
         )
 
     first = pool[initial_labeled_set(len(pool), size, seeds[0])]
@@ -85,8 +89,10 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--val-seed", type=int, default=VALIDATION_SEED)
     parser.add_argument("--cache", type=Path, default=None)
     parser.add_argument("--set", nargs="*", default=[], metavar="KEY=VALUE")
+    add_compute_arguments(parser)
     args = parser.parse_args(argv)
     overrides = recipe_overrides(args.set)
+    compute = compute_of(args)
     cache = args.cache or Path(tempfile.mkdtemp(prefix="spl-al-spread-"))
     cache.mkdir(parents=True, exist_ok=True)
     rows = []
@@ -104,6 +110,7 @@ def main(argv: list[str] | None = None) -> int:
                 variants=args.variants,
                 val_fraction=args.val_fraction,
                 val_seed=args.val_seed,
+                compute=compute,
             )
             mean = float(np.mean(r["draws"]))
             binomial = (

@@ -191,7 +191,7 @@ def forward_gflop(model, shape) -> float:
 def _throughput(task: str, arch: str, shape: tuple[int, int], batch: int, steps: int, **params):
     """Training images/s of ``train`` itself (after a warm-up run) and forward GFLOP/image."""
     from spl_al.models import build_model
-    from spl_al.training import TrainConfig, train
+    from spl_al.training import Compute, TrainConfig, train
 
     rng = np.random.default_rng(0)
     n = 4 * batch
@@ -202,7 +202,7 @@ def _throughput(task: str, arch: str, shape: tuple[int, int], batch: int, steps:
     for run_steps in (2, steps):  # the first run warms up oneDNN's kernels
         cfg = TrainConfig(steps=run_steps, batch_size=batch, log_every=0)
         t0 = time.perf_counter()
-        train(model, depth, valid, y, cfg=cfg, seed=0, device="cpu", log=io.StringIO())
+        train(model, depth, valid, y, cfg=cfg, seed=0, compute=Compute("cpu"), log=io.StringIO())
         seconds = time.perf_counter() - t0
     return steps * batch / seconds, forward_gflop(model, (2, *shape))
 

@@ -9,7 +9,7 @@ when torch sees a GPU): images (clouds) per second of
 - training: ``spl_al.training.train`` itself with the dataset's own recipe (input
   building, augmentation, SGD step), ``--steps`` steps timed after a warm-up run in
   the same process, images/s = steps x batch / seconds;
-- inference: ``spl_al.training.predict`` over 4 batches (the forward passes of
+- inference: ``spl_al.training.forward`` over 4 batches (the forward passes of
   evaluation and scoring), after one warm-up pass.
 
 Inputs are random depth images (and masks) of the dataset's shape: throughput does not
@@ -86,9 +86,11 @@ def measure(
     (default: ``precision``)."""
     import torch
 
-    from spl_al.training import TrainConfig, predict, train
+    from spl_al.training import Compute, TrainConfig, predict, train
 
     torch.set_num_threads(threads)
+    training = Compute(device, precision=precision)
+    inference = Compute(device, precision=infer_precision or precision)
     n_classes = 11 if task == "classification" else 8
     batch = int(fit.get("batch_size", 32))
     depth, valid, targets = random_data(task, shape, n=4 * batch, n_classes=n_classes)
@@ -96,23 +98,19 @@ def measure(
     fit = {k: v for k, v in fit.items() if k not in ("epochs", "min_steps", "steps_per_group")}
     rates = []
     for run_steps in (2, steps):  # the first run warms up
-        cfg = TrainConfig.from_dict(
-            {**fit, "steps": run_steps, "epochs": None, "log_every": 0, "precision": precision}
-        )
+        cfg = TrainConfig.from_dict({**fit, "steps": run_steps, "epochs": None, "log_every": 0})
         sync(device)
         start = time.perf_counter()
-        train(model, depth, valid, targets, cfg=cfg, seed=0, device=device, log=io.StringIO())
+        train(model, depth, valid, targets, cfg=cfg, seed=0, compute=training, log=io.StringIO())
         sync(device)
         rates.append(run_steps * batch / (time.perf_counter() - start))
-    infer_precision = infer_precision or precision
     predict(
         model,
         depth[:batch],
         valid[:batch],
-        device=device,
+        compute=inference,
         batch_size=batch,
         features="none",
-        precision=infer_precision,
     )
     sync(device)
     start = time.perf_counter()
@@ -120,10 +118,9 @@ def measure(
         model,
         depth,
         valid,
-        device=device,
+        compute=inference,
         batch_size=batch,
         features="none",
-        precision=infer_precision,
     )
     sync(device)
     return rates[-1], len(depth) / (time.perf_counter() - start)

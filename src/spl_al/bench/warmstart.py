@@ -49,19 +49,21 @@ def sequence_scores(
     round trained cold, or (``warm``) rounds >= 1 fine-tuned with those fit fields."""
     from spl_al.models.configured import model_for
     from spl_al.training import evaluate
+    from spl_al.training.compute import Compute
     from spl_al.training.groups import train_groups
 
+    Compute(threads=1).apply()  # one thread, as a pipeline job trains (process time)
     fit_idx, val_idx = tuning_split(data)
     order = np.random.default_rng(seed).permutation(fit_idx)
     model, scores, started = None, [], time.process_time()
     for r, n in enumerate(counts):
         labeled = order[:n]
-        fit = {**fit_cfg, "log_every": 0, "num_threads": 1}
+        fit = {**fit_cfg, "log_every": 0}
         if warm is not None and r > 0:
             fit = {**fit, **warm, "from_scratch": False}
         else:
             model = model_for(data, model_cfg)
-        model, cfg, _ = train_groups(
+        model, _cfg, _ = train_groups(
             data,
             labeled,
             given=data.labels[labeled],
@@ -71,10 +73,7 @@ def sequence_scores(
             seed=1000 * seed + r,
             log=io.StringIO(),
         )
-        metrics = evaluate(
-            model, data.depth_m[val_idx], data.valid[val_idx], data.labels[val_idx],
-            precision=cfg.precision,
-        )  # fmt: skip
+        metrics = evaluate(model, data.depth_m[val_idx], data.valid[val_idx], data.labels[val_idx])
         scores.append(100 * float(metrics["accuracy" if data.task == "classification" else "miou"]))
     return scores, time.process_time() - started
 

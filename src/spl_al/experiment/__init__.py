@@ -5,8 +5,9 @@
 - ``data_steps``, ``round_steps``, ``report_steps``, ``deploy_steps``, ``human``: the
   functions the workflow's scripts call, one per rule.
 - ``embedding_steps``: the embedding framework's encoder and runs.
-- ``step_args``: the small records a step takes (``Compute``, ``RoundId``,
-  ``ModelFiles``, ``RoundStart``), importable without numpy or torch.
+- ``step_args``: the small records a step takes (``RoundId``,
+  ``ModelFiles``, ``RoundStart``; ``Compute`` is ``spl_al.training``'s), importable
+  without numpy or torch.
 
 How a job runs (the warm server, its client and the job log) is ``spl_al.warm``.
 """

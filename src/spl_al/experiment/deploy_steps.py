@@ -7,7 +7,7 @@ torch on the test split, with the exported card beside it (``spl_al.deploy.expor
 
 from __future__ import annotations
 
-from spl_al.experiment.step_args import LOCAL, Compute
+from spl_al.training.compute import LOCAL, Compute
 
 
 def model_card(

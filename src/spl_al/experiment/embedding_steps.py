@@ -26,8 +26,8 @@ import numpy as np
 from spl_al.atomic import atomic_write, read_json, write_json
 from spl_al.experiment.plan import MethodSpec, batch_of
 from spl_al.experiment.round_steps import QUERY_STREAM, step_seed
-from spl_al.experiment.step_args import LOCAL, Compute
 from spl_al.models.configured import save_model
+from spl_al.training.compute import LOCAL, Compute
 
 FRAMEWORK = "embedding"
 CARD_KEYS = ("dataset", "variants", "image_shape")

@@ -64,11 +64,12 @@ def batch_probabilities(dataset, pool_indices, model_path, model_cfg: dict) -> n
     """The probabilities a saved model gives the observed images of training-pool groups
     ``pool_indices``: (n, C), or (n, C, H, W) for segmentation. Images only, no labels."""
     from spl_al.models.configured import load_model
-    from spl_al.training.predict import predict
+    from spl_al.training.compute import Compute
+    from spl_al.training.forward import predict
 
     model = load_model(dataset, model_cfg, model_path)
     depth, valid = dataset.groups(dataset.train_idx[np.asarray(pool_indices)], n_variants=0)
-    return predict(model, depth[:, 0], valid[:, 0], device="cpu", features="none").probs
+    return predict(model, depth[:, 0], valid[:, 0], compute=Compute("cpu"), features="none").probs
 
 
 def label_batch(

@@ -125,8 +125,8 @@ def write_run_config(config: dict, out_path) -> dict:
     precision its models run at on the configured device (what ``precision: auto``
     resolved to here). Returns that mapping."""
     from spl_al.config import dataset_precision, write_config
-    from spl_al.experiment.step_args import Compute
     from spl_al.models import model_class
+    from spl_al.training.compute import Compute
 
     used = {}
     for name, entry in config["datasets"].items():

@@ -32,7 +32,7 @@ import numpy as np
 import pandas as pd
 
 from spl_al.atomic import read_json, write_json
-from spl_al.experiment.step_args import LOCAL, Compute
+from spl_al.training.compute import LOCAL, Compute
 
 GRID_FORMAT = "spl-al-robustness-grid"
 _STREAM_GRID = 11
@@ -205,7 +205,7 @@ def evaluate_grid(
     from spl_al.data import SCENE_FIELDS, Dataset
     from spl_al.experiment.round_steps import resolved_for
     from spl_al.models.configured import load_model
-    from spl_al.training import MEASURE_PRECISION, evaluate
+    from spl_al.training import evaluate
 
     model_paths = [model_paths] if isinstance(model_paths, str | Path) else list(model_paths)
     seeds = [int(s) for s in names["seeds"]]
@@ -234,9 +234,8 @@ def evaluate_grid(
             targets,
             levels=cell,
             classes=dataset.classes,
-            device=compute.device,
+            compute=compute.measuring(),
             batch_size=batch_size,
-            precision=MEASURE_PRECISION,
         )
         per_cell = metrics["per_level"]
         records.append(

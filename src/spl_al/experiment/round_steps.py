@@ -15,8 +15,9 @@ import numpy as np
 
 from spl_al.atomic import atomic_write, read_json, write_json
 from spl_al.experiment.plan import MethodSpec
-from spl_al.experiment.step_args import FRESH, LOCAL, Compute, ModelFiles, RoundId, RoundStart
+from spl_al.experiment.step_args import FRESH, ModelFiles, RoundId, RoundStart
 from spl_al.pool import read_labeled
+from spl_al.training.compute import LOCAL, Compute
 
 # Streams of np.random.SeedSequence([seed, round, stream]): one per kind of draw.
 TRAIN_STREAM = 1
@@ -118,7 +119,7 @@ def fit_and_evaluate(
     steps), else from fresh weights.
     """
     from spl_al.models.configured import load_model, model_for
-    from spl_al.training import MEASURE_PRECISION, evaluate
+    from spl_al.training import evaluate
     from spl_al.training.groups import train_groups
 
     started = time.perf_counter()
@@ -135,10 +136,10 @@ def fit_and_evaluate(
         dataset.train_idx[pool_idx],
         given=given,
         model=model,
-        fit={**fit, "num_threads": compute.threads, "precision": compute.precision},
+        fit=fit,
         n_variants=n_variants,
         seed=step_seed(seed, round_, TRAIN_STREAM),
-        device=compute.device,
+        compute=compute,
         log=log,
     )
     train_seconds = time.perf_counter() - started
@@ -150,9 +151,8 @@ def fit_and_evaluate(
         dataset.labels[test],
         levels=dataset.level[test],
         classes=dataset.classes,
-        device=compute.device,
+        compute=compute.measuring(),  # (not the training's precision: see the docstring)
         batch_size=cfg.eval_batch_size,
-        precision=MEASURE_PRECISION,  # (not the training's: see its docstring)
     )
     groups = len(pool_idx)
     return Fit(
@@ -268,7 +268,6 @@ def _score_every_need(model, dataset, *, pool_idx, m, out_path, compute) -> None
     from spl_al.scoring import compute_inputs
     from spl_al.strategies import StrategyInputs
     from spl_al.strategies.inputs import ARRAY_FIELDS, GROUP_NEEDS, NEEDS
-    from spl_al.training.precision import MEASURE_PRECISION
 
     unlabeled = np.setdiff1d(np.arange(len(dataset.train_idx)), pool_idx)
     passes = [(0, frozenset(NEEDS) - GROUP_NEEDS)] + ([(m, GROUP_NEEDS)] if m else [])
@@ -282,8 +281,7 @@ def _score_every_need(model, dataset, *, pool_idx, m, out_path, compute) -> None
             valid=valid,
             unlabeled_idx=unlabeled,
             labeled_idx=pool_idx,
-            device=compute.device,
-            precision=MEASURE_PRECISION,
+            compute=compute.measuring(),
         )
         parts.update(
             {f: getattr(inputs, f) for f in ARRAY_FIELDS if getattr(inputs, f) is not None}
@@ -545,7 +543,6 @@ def score_pool(
     labels are read: the strategy inputs are built from images and the model alone."""
     from spl_al.scoring import compute_inputs
     from spl_al.strategies import get
-    from spl_al.training.precision import MEASURE_PRECISION
 
     started = time.perf_counter()
     # What to compute depends on the strategy alone, not on its parameters.
@@ -560,8 +557,7 @@ def score_pool(
         valid=valid,
         unlabeled_idx=unlabeled,
         labeled_idx=labeled,
-        device=compute.device,
-        precision=MEASURE_PRECISION,
+        compute=compute.measuring(),
     )
     inputs.save(out_path)
     return {"unlabeled": int(unlabeled.size), "seconds": round(time.perf_counter() - started, 3)}

@@ -17,8 +17,9 @@ from torch import nn
 
 from spl_al.label_codes import IGNORE_INDEX
 from spl_al.models import model_input, reset_parameters, seed_own_draws, training_outputs
-from spl_al.training.device import deterministic_algorithms, resolve_device
-from spl_al.training.precision import LossScaler, autocast, resolve_precision
+from spl_al.training.compute import LOCAL, Compute
+from spl_al.training.device import deterministic_algorithms
+from spl_al.training.precision import LossScaler, autocast
 from spl_al.training.recipe import TrainConfig
 from spl_al.training.sgd import SGD
 
@@ -258,7 +259,7 @@ def train(
     *,
     cfg: TrainConfig | dict | None = None,
     seed: int = 0,
-    device: str | torch.device | None = None,
+    compute: Compute | None = None,
     log: str | os.PathLike | TextIO | None = None,
     groups: int | None = None,
 ) -> nn.Module:
@@ -284,7 +285,9 @@ def train(
         targets: (n,) int class indices, or (n, H, W) uint8 masks (IGNORE_INDEX = ignore).
         cfg: a ``TrainConfig`` (or a dict for ``TrainConfig.from_dict``).
         seed: seed of initialisation, batch order and augmentation.
-        device: "auto"/None, "cpu", "cuda" (``resolve_device``).
+        compute: where and at which precision it trains (``Compute``; resolved for
+            the model unless it is already; None: ``LOCAL``). Its threads are the
+            caller's to apply (``Compute.apply``), once per process.
         log: where progress lines go: None = stderr, a path (appended) or a stream.
         groups: how many labeled groups the images come from (for
             ``cfg.steps_per_group`` and, with ``cfg.steps_by`` "groups", the steps of
@@ -294,10 +297,8 @@ def train(
     cfg = cfg if isinstance(cfg, TrainConfig) else TrainConfig.from_dict(cfg)
     depth_m = np.asarray(depth_m)
     t = _check_inputs(model, depth_m, targets, cfg, groups)
-    dev = resolve_device(device)
-    precision = resolve_precision(cfg.precision, dev, model)
-    if cfg.num_threads is not None:
-        torch.set_num_threads(cfg.num_threads)
+    compute = (compute or LOCAL).resolved(model)
+    dev, precision = compute.torch_device, compute.precision
     x_all, y_all = _training_set(model, depth_m, valid, t, dev)
     class_weight = (
         balanced_class_weights(y_all, model.n_classes, cfg.balance).to(dev)

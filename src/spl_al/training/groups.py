@@ -17,14 +17,14 @@ def train_groups(
     fit: dict,
     n_variants: int,
     seed: int,
-    device=None,
+    compute=None,
     log=None,
 ):
     """Train ``model`` on the groups of dataset samples ``samples`` as a round trains:
     each group's observed image and first ``n_variants`` variants, all with the group's
-    label or mask (``given``, one per sample). ``fit``: TrainConfig fields (a round's
-    step adds its threads and precision); ``device``: torch's. Returns (the model, its
-    TrainConfig, the number of training images)."""
+    label or mask (``given``, one per sample). ``fit``: TrainConfig fields;
+    ``compute``: where and at which precision (``Compute``, as ``train`` takes it).
+    Returns (the model, its TrainConfig, the number of training images)."""
     cfg = TrainConfig.from_dict(fit)
     depth, valid = dataset.groups(samples, n_variants=n_variants)
     targets = np.repeat(given, depth.shape[1], axis=0)
@@ -36,7 +36,7 @@ def train_groups(
         targets,
         cfg=cfg,
         seed=seed,
-        device=device,
+        compute=compute,
         log=log,
         groups=len(samples),
     )

@@ -5,12 +5,12 @@ from __future__ import annotations
 from collections.abc import Sequence
 
 import numpy as np
-import torch
 from torch import nn
 
 from spl_al.label_codes import IGNORE_INDEX
+from spl_al.training.compute import Compute
 from spl_al.training.fit import check_targets
-from spl_al.training.predict import iter_forward
+from spl_al.training.forward import iter_forward
 
 LEVEL_ORDER = ("high", "medium", "low")
 
@@ -105,9 +105,8 @@ def evaluate(
     *,
     levels: Sequence[str] | None = None,
     classes: Sequence[str] | None = None,
-    device: str | torch.device | None = None,
+    compute: Compute | None = None,
     batch_size: int = 256,
-    precision: str = "fp32",
 ) -> dict:
     """Evaluate ``model`` on (n, H, W) images against their targets.
 
@@ -116,7 +115,7 @@ def evaluate(
     all counted pixels), "pixel_accuracy", "per_class_iou", "confusion"; invalid
     pixels and IGNORE_INDEX are not counted. With ``levels`` (one MSPPP level per
     image) the same metrics per level under "per_level". Undefined values are None.
-    ``precision``: of the forward passes (``spl_al.training.precision``).
+    ``compute``: device and precision of the forward passes (``iter_forward``).
     """
     task = model.task
     depth_m = np.asarray(depth_m)
@@ -131,7 +130,7 @@ def evaluate(
     )
     confs = []
     for start, probs, _, v in iter_forward(
-        model, depth_m, valid, device=device, batch_size=batch_size, precision=precision
+        model, depth_m, valid, compute=compute, batch_size=batch_size
     ):
         pred = probs.argmax(1).cpu().numpy()
         tb = t[start : start + len(pred)]

@@ -5,15 +5,15 @@ from __future__ import annotations
 from collections.abc import Mapping
 from dataclasses import asdict, dataclass, fields
 
-from spl_al.training.precision import PRECISIONS
-
 STEPS_BY = ("groups", "images")
 """What ``TrainConfig.epochs`` counts passes over: the labeled groups, or every image."""
 
 
 @dataclass(frozen=True)
 class TrainConfig:
-    """How to train one model; independent of the seed (passed to ``train``).
+    """How to train one model; independent of the seed and of where it runs (both
+    passed to ``train``: the seed, and a ``Compute`` with the device, threads and
+    precision).
 
     Attributes:
         epochs: passes over the training set (used when ``steps`` is None): over the
@@ -64,13 +64,7 @@ class TrainConfig:
         from_scratch: re-initialise the weights from the seed before training.
         channels_last: NHWC memory layout (about 2x faster convolutions on CPU).
         log_every: write a progress line every this many epochs (0: none).
-        num_threads: ``torch.set_num_threads`` for training and prediction
-            (None: leave torch's choice; set it to the threads a job was given).
         eval_batch_size: images per forward pass in prediction and evaluation.
-        precision: "fp32", "bf16", "fp16" (CUDA only) or "auto" (bf16 where the
-            device computes it natively, else fp32) for training and every forward
-            pass of the model (``spl_al.training.precision``); weights, optimiser
-            state and loss stay fp32.
     """
 
     epochs: int | None = 30
@@ -95,9 +89,7 @@ class TrainConfig:
     from_scratch: bool = True
     channels_last: bool = True
     log_every: int = 1
-    num_threads: int | None = None
     eval_batch_size: int = 256
-    precision: str = "fp32"
 
     def __post_init__(self) -> None:
         def positive_int(name: str, value, allow_none: bool = False, minimum: int = 1) -> None:
@@ -116,7 +108,6 @@ class TrainConfig:
         positive_int("steps_per_group", self.steps_per_group, minimum=0)
         positive_int("batch_size", self.batch_size)
         positive_int("log_every", self.log_every, minimum=0)
-        positive_int("num_threads", self.num_threads, allow_none=True)
         positive_int("eval_batch_size", self.eval_batch_size)
         bounds = {
             "shift": (0, 0.5),
@@ -145,10 +136,6 @@ class TrainConfig:
         if self.steps_by not in STEPS_BY:
             raise ValueError(
                 f"TrainConfig.steps_by must be one of {list(STEPS_BY)}, got {self.steps_by!r}."
-            )
-        if self.precision not in PRECISIONS:
-            raise ValueError(
-                f"TrainConfig.precision must be one of {list(PRECISIONS)}, got {self.precision!r}."
             )
         for name in ("nesterov", "cosine", "hflip", "from_scratch", "channels_last"):
             if not isinstance(getattr(self, name), bool):

@@ -10,8 +10,8 @@ import torch
 from torch import nn
 
 from spl_al.models import model_input
-from spl_al.training.device import resolve_device
-from spl_al.training.precision import autocast, resolve_precision
+from spl_al.training.compute import LOCAL, Compute
+from spl_al.training.precision import autocast
 
 FEATURE_MODES = ("image", "pixel", "none")
 
@@ -21,16 +21,16 @@ def iter_forward(
     depth_m,
     valid,
     *,
-    device: str | torch.device | None = None,
+    compute: Compute | None = None,
     batch_size: int = 256,
-    precision: str = "fp32",
 ) -> Iterator[tuple[int, torch.Tensor, torch.Tensor, torch.Tensor]]:
     """Run ``model`` in eval mode over images in batches, without gradients.
 
     Args:
         depth_m, valid: (n, H, W) arrays (numpy, memory-mapped or torch).
-        precision: "fp32", "bf16", "fp16" or "auto" (``spl_al.training.precision``);
-            the outputs are float32 whatever it is.
+        compute: the device and the precision of the passes (``Compute``; resolved
+            for the model unless it is already; None: ``LOCAL``, fp32); the outputs
+            are float32 whatever the precision.
 
     Yields:
         (start, probs, features, valid) per batch, on the device: probs (b, C) or
@@ -39,8 +39,8 @@ def iter_forward(
     """
     if batch_size < 1:
         raise ValueError(f"batch_size must be >= 1, got {batch_size}.")
-    dev = resolve_device(device)
-    precision = resolve_precision(precision, dev, model)
+    compute = (compute or LOCAL).resolved(model)
+    dev, precision = compute.torch_device, compute.precision
     model.to(dev).eval()
     # Mixed precision runs convolutions channels-last (oneDNN's fast bf16 layout; 1.6x
     # here); fp32 keeps the layout it always had, so its numbers stay as they were.
@@ -98,25 +98,22 @@ def predict(
     depth_m,
     valid,
     *,
-    device: str | torch.device | None = None,
+    compute: Compute | None = None,
     batch_size: int = 256,
     features: str = "image",
-    precision: str = "fp32",
 ) -> Predictions:
     """Class probabilities and penultimate features of ``model`` for (n, H, W) images.
 
     Args:
         features: "image" (per image; segmentation averages over valid pixels),
             "pixel" (segmentation: the full (n, d, H, W) maps), or "none".
-        precision: of the forward passes (``iter_forward``).
+        compute: device and precision of the forward passes (``iter_forward``).
     """
     if features not in FEATURE_MODES:
         raise ValueError(f"features must be one of {FEATURE_MODES}, got {features!r}.")
     probs, feats = [], []
     per_pixel = model.task == "segmentation"
-    for _, p, f, v in iter_forward(
-        model, depth_m, valid, device=device, batch_size=batch_size, precision=precision
-    ):
+    for _, p, f, v in iter_forward(model, depth_m, valid, compute=compute, batch_size=batch_size):
         probs.append(p.cpu().numpy())
         if features == "image" and per_pixel:
             f = pool_pixels(f, v)
