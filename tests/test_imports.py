@@ -354,3 +354,33 @@ def test_a_package_that_loads_its_api_on_first_use_gives_every_name_it_lists():
         package = importlib.import_module(module)
         for name in package.__all__:
             assert not isinstance(getattr(package, name), types.ModuleType), f"{module}.{name}"
+
+
+def test_a_function_local_import_says_why_it_is_not_at_the_top():
+    """An spl_al import inside a function is there because import time matters (torch,
+    pandas, scipy... only when the function runs); a comment on its run of imports
+    says so. Any other import belongs at the top of its module."""
+    silent = []
+    for module, path in MODULES.items():
+        lines = path.read_text().splitlines()
+        tree = ast.parse("\n".join(lines))
+        for fn in ast.walk(tree):
+            if not isinstance(fn, (ast.FunctionDef, ast.AsyncFunctionDef)):
+                continue
+            for node in ast.walk(fn):
+                if not isinstance(node, ast.ImportFrom) or node.level:
+                    continue
+                if not (node.module or "").startswith("spl_al"):
+                    continue
+                k, said = node.lineno - 1, "#" in lines[node.lineno - 1]
+                while not said and k > 0:  # up through the run of imports
+                    k -= 1
+                    text = lines[k].strip()
+                    if text.startswith("#"):
+                        said = True
+                    elif not (text == "" or text.startswith(("import ", "from ", ")")) or
+                              text.endswith(",") or text.endswith("(")):  # fmt: skip
+                        break
+                if not said:
+                    silent.append(f"{module}:{node.lineno} from {node.module}")
+    assert not silent, silent

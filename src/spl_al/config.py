@@ -285,6 +285,7 @@ folder without it was made by an older spl-al (``spl_al.experiment.provenance``)
 
 def write_config(config: dict, path) -> Path:
     """Write the effective configuration of a run as YAML (atomically, keys sorted)."""
+    # yaml on demand (importing this module does not load it)
     import yaml
 
     from spl_al.atomic import atomic_write_text

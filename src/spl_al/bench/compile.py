@@ -40,6 +40,7 @@ def _case(dataset: str) -> tuple[str, dict, int, tuple[int, int]]:
 
 def time_steps(dataset: str, steps: int) -> dict:
     """Eager and compiled ms/step of one model, and the first compiled step's seconds."""
+    # torch on demand (importing this module does not load it)
     import torch
 
     from spl_al.models import model_input, training_outputs

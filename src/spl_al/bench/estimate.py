@@ -30,9 +30,18 @@ import platform
 import time
 from pathlib import Path
 
-from spl_al.bench.projection import merged_config, method_variants, split_sizes
+from spl_al.bench.projection import merged_config, method_variants, model_case, split_sizes
 from spl_al.bench.timing import markdown_table
+from spl_al.bench.training import measure
+from spl_al.config import dataset_precision
+from spl_al.data import Dataset
 from spl_al.data.sources import is_synthesised
+from spl_al.data.variants import generate_variants
+from spl_al.experiment.data_steps import make_dataset
+from spl_al.linear_probe import LinearProbe, probe_inputs
+from spl_al.strategies import GROUP_NEEDS, get
+from spl_al.strategies import get as get_strategy
+from spl_al.training import TrainConfig
 
 ROOT = Path(__file__).resolve().parents[3]
 
@@ -65,10 +74,8 @@ def cpu_name() -> str:
 def plan_counts(config: dict, dataset: str) -> dict:
     """What a dataset's experiments run: trainings and their images, forward-pass images
     (evaluation, scoring), queries and round-0 copies (jobs without training)."""
+    # pandas on demand (importing this module does not load it)
     from spl_al.experiment.plan import dataset_method, dataset_runs, labeled_at
-    from spl_al.strategies import GROUP_NEEDS
-    from spl_al.strategies import get as get_strategy
-    from spl_al.training import TrainConfig
 
     entry = config["datasets"][dataset]
     n_pool, n_test, _ = split_sizes(entry)
@@ -117,10 +124,6 @@ def _mini_entry(entry: dict) -> tuple[dict, int]:
 
 def data_seconds_per_image(entry: dict, tmp: Path) -> tuple[float, float]:
     """(observed image, one variant) seconds per image, timed on a miniature."""
-    from spl_al.data import Dataset
-    from spl_al.data.variants import generate_variants
-    from spl_al.experiment.data_steps import make_dataset
-
     mini, n = _mini_entry(entry)
     mini["source"] = "synthetic"  # a stand-in is synthesised as a procedural set is
     start = time.perf_counter()
@@ -145,7 +148,7 @@ def robustness_images(config: dict, dataset: str) -> int:
 
 
 def _measure(case) -> tuple[float, float]:
-    from spl_al.bench.training import measure
+    # torch on demand (importing this module does not load it)
     from spl_al.training.precision import MEASURE_PRECISION
 
     task, model_cfg, fit, shape, precision, threads, steps, device = case
@@ -178,6 +181,7 @@ def concurrent_rates(case, jobs: int) -> tuple[float, float]:
 
 def deploy_jobs(config: dict, dataset: str) -> int:
     """Model cards beside the budget's final models and the ONNX exports (seconds each)."""
+    # pandas on demand (importing this module does not load it)
     from spl_al.experiment.plan import experiments_of
 
     budget = experiments_of(config, dataset).get("budget")
@@ -191,10 +195,9 @@ def deploy_jobs(config: dict, dataset: str) -> int:
 
 def estimate_dataset(config: dict, dataset: str, *, tmp: Path, steps: int, jobs: int = 2) -> dict:
     """Seconds of one dataset's jobs, by part, and its job count."""
+    # torch on demand (importing this module does not load it)
     import torch
 
-    from spl_al.bench.projection import model_case
-    from spl_al.config import dataset_precision
     from spl_al.models import model_class
     from spl_al.training import resolve_device
     from spl_al.training.precision import resolve_precision
@@ -237,9 +240,6 @@ def probe_round_seconds(*, n_pool: int, n_test: int, m: int, dim: int, n_labeled
     import numpy as np
     from threadpoolctl import threadpool_limits
 
-    from spl_al.linear_probe import LinearProbe, probe_inputs
-    from spl_al.strategies import get
-
     m = int(m)
     rng = np.random.default_rng(0)
     emb = rng.normal(size=(n_pool, 1 + m, dim)).astype(np.float32)
@@ -271,6 +271,7 @@ def embedding_seconds(config: dict, dataset: str, *, steps: int = 5) -> dict:
     (``steps`` timed steps of its recipe, scaled to its steps, plus embedding every
     image) and the probe runs (a few timed rounds of DUIS and Random on random
     embeddings of the pool's size, times the rounds planned), and its job count."""
+    # torch and pandas on demand (importing this module does not load them)
     import torch
 
     from spl_al.experiment.plan import dataset_runs, labeled_at

@@ -21,14 +21,16 @@ from pathlib import Path
 import numpy as np
 
 from spl_al.bench.timing import markdown_table, median_seconds
+from spl_al.deploy.bundle import onnx_session
+from spl_al.deploy.export import NOT_EXPORTED, write_onnx
+from spl_al.scenes.objects import CATEGORIES
+from spl_al.scenes.raycast import ScanGrid
+from spl_al.scenes.street import STREET_CLASSES
 
 
 def _models(config_path: Path):
     """(dataset, task, model_cfg, image_shape, n_classes, grid) of each config dataset."""
     import yaml
-
-    from spl_al.scenes.objects import CATEGORIES
-    from spl_al.scenes.street import STREET_CLASSES
 
     config = yaml.safe_load(config_path.read_text())
     for name, entry in config["datasets"].items():
@@ -39,13 +41,12 @@ def _models(config_path: Path):
 
 
 def _build(task, model_cfg, shape, n_classes):
+    # torch on demand (importing this module does not load it)
     from spl_al.models import build_model, needs_grid
 
     cfg = dict(model_cfg)
     arch = cfg.pop("arch", None)
     if needs_grid(task, arch):
-        from spl_al.scenes.raycast import ScanGrid
-
         cfg["grid"] = ScanGrid(shape, (8.0, -22.0), (-45.0, 45.0))
     return build_model(task, n_classes, arch=arch, seed=0, **cfg).eval()
 
@@ -65,10 +66,9 @@ def _time(run, single, batch, repeats) -> tuple[float, float]:
 
 def bench_one(task, model_cfg, *, shape, n_classes, threads, batch_size, repeats) -> dict:
     """Latency (ms) and throughput (frames/s) of one model in torch and onnxruntime."""
+    # torch on demand (importing this module does not load it)
     import torch
 
-    from spl_al.deploy.bundle import onnx_session
-    from spl_al.deploy.export import NOT_EXPORTED, write_onnx
     from spl_al.deploy.graph import DeployGraph
 
     torch.set_num_threads(threads)

@@ -35,8 +35,13 @@ from pathlib import Path
 import numpy as np
 
 from spl_al.bench.timing import markdown_table
+from spl_al.data import Dataset, load_folder
+from spl_al.data.digits import write_digits_folder
 from spl_al.data.validation import VALIDATION_FRACTION, VALIDATION_SEED, validation_split
+from spl_al.data.variants import make_variants
+from spl_al.experiment.data_steps import make_dataset
 from spl_al.pool import initial_labeled_set
+from spl_al.training.compute import Compute
 
 FRACTIONS = (0.02, 0.05, 0.10, 0.25, 1.0)
 SEEDS = (1, 2, 3)
@@ -61,6 +66,7 @@ def tuning_split(
 
 def _linear_image_features(depth_m, valid) -> np.ndarray:
     """(n, 2 * 16 * 16): standardised depth and validity, bilinearly downsampled."""
+    # torch on demand (importing this module does not load it)
     import torch.nn.functional as F
 
     from spl_al.models import to_input
@@ -108,6 +114,7 @@ def linear_reference(dataset, labeled: np.ndarray, held_out: np.ndarray, seed: i
             return float(np.mean(dataset.labels[val] == y_tr[0]))
         clf = LogisticRegression(max_iter=2000).fit(x_tr, y_tr)
         return float(np.mean(clf.predict(x_val) == dataset.labels[val]))
+    # torch on demand (importing this module does not load it)
     from spl_al.training.metrics import confusion_per_image, segmentation_summary
 
     f_tr = pixel_features(dataset.depth_m[labeled], dataset.valid[labeled])
@@ -145,6 +152,7 @@ def learner_score(
     """Accuracy (mIoU) on the observed images of samples ``held_out`` of the configured
     model trained on samples ``labeled`` (with their variants when ``variants``), as a
     pipeline round trains it, on ``compute`` (``Compute``; None: ``LOCAL``, fp32)."""
+    # torch on demand (importing this module does not load it)
     from spl_al.models.configured import model_for
     from spl_al.training import evaluate
     from spl_al.training.groups import train_groups
@@ -260,10 +268,6 @@ def default_datasets(config_path: Path, names: list[str] | None, cache: Path):
     the pipeline makes them (cached under ``cache``)."""
     import yaml
 
-    from spl_al.data import Dataset
-    from spl_al.data.variants import make_variants
-    from spl_al.experiment.data_steps import make_dataset
-
     config = yaml.safe_load(config_path.read_text())
     for name, entry in config["datasets"].items():
         if names and name not in names:
@@ -308,8 +312,6 @@ def add_compute_arguments(parser: argparse.ArgumentParser) -> None:
 
 def compute_of(args: argparse.Namespace):
     """The ``Compute`` of ``--precision`` and ``--threads``, its threads applied."""
-    from spl_al.training.compute import Compute
-
     compute = Compute(precision=args.precision, threads=args.threads)
     compute.apply()
     return compute
@@ -347,10 +349,6 @@ def main(argv: list[str] | None = None) -> int:
     compute = compute_of(args)
 
     import yaml
-
-    from spl_al.data import Dataset, load_folder
-    from spl_al.data.digits import write_digits_folder
-    from spl_al.data.variants import make_variants
 
     cache = args.cache or Path(tempfile.mkdtemp(prefix="spl-al-learnability-"))
     cache.mkdir(parents=True, exist_ok=True)

@@ -19,6 +19,7 @@ from functools import partial
 
 import numpy as np
 
+from spl_al.bench.sspi import sspi_frame_cost
 from spl_al.bench.timing import markdown_table, median_seconds
 from spl_al.photon import Condition, PhotonScene, SensorParams, reconstruct, simulate_photons
 from spl_al.photon.pictures import demo_scene
@@ -93,8 +94,6 @@ def main(argv: list[str]) -> int:
 
 def sspi_rows(sensor, depth, refl, weights) -> str:
     """SSPI per 64x64x1024 frame at CONDITIONS: wall / CPU seconds and peak memory."""
-    from spl_al.bench.sspi import sspi_frame_cost
-
     rows = []
     for msppp, sbr in CONDITIONS:
         events = simulate_photons(

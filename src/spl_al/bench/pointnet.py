@@ -42,6 +42,7 @@ CASES = (
 
 def _scans(n: int, shape, seed: int = 0):
     """(n, H, W) ranges of a ground plane and a wall, 10% voids; labels 0 / 1."""
+    # numpy on demand (importing this module does not load it)
     import numpy as np
 
     from spl_al.scenes.street import default_grid
@@ -63,6 +64,7 @@ def _scans(n: int, shape, seed: int = 0):
 
 def _case(label: str, shape, *, params: dict, batch: int, threads: int, steps: int, device: str):
     """One row, run in a fresh process: (train clouds/s, inference clouds/s, peak MB)."""
+    # torch on demand (importing this module does not load it)
     import numpy as np
     import torch
 

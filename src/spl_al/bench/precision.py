@@ -29,6 +29,12 @@ import pandas as pd
 
 from spl_al.bench.estimate import cpu_name
 from spl_al.bench.timing import markdown_table
+from spl_al.data import Dataset
+from spl_al.experiment.plan import batch_of, dataset_method
+from spl_al.pool import read_labeled
+from spl_al.strategies import get
+from spl_al.strategies.inputs import GROUP_NEEDS
+from spl_al.training.compute import Compute
 
 ROOT = Path(__file__).resolve().parents[3]
 CONFIG = ROOT / "config" / "precision.yaml"
@@ -129,17 +135,12 @@ def pick_agreement(results: Path, dataset: str) -> list[list[str]]:
     the two have in common (mean and lowest over the queries) and the queries that pick
     the very same groups. Methods that select on the self-supervised embedding
     (``features: embedding``) are left out: their selection reads no model output."""
+    # torch and yaml on demand (importing this module does not load them)
     import numpy as np
     import yaml
 
-    from spl_al.data import Dataset
-    from spl_al.experiment.plan import batch_of, dataset_method
     from spl_al.models.configured import load_model
-    from spl_al.pool import read_labeled
     from spl_al.scoring import compute_inputs
-    from spl_al.strategies import get
-    from spl_al.strategies.inputs import GROUP_NEEDS
-    from spl_al.training.compute import Compute
 
     config = yaml.safe_load((results / "config.yaml").read_text())
     entry = config["datasets"][dataset]

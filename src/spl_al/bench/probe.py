@@ -30,7 +30,17 @@ from pathlib import Path
 
 import numpy as np
 
+from spl_al.bench.learnability import (
+    default_datasets,
+    learner_score,
+    linear_reference,
+    pixel_features,
+    tuning_split,
+)
 from spl_al.bench.timing import markdown_table
+from spl_al.data import Dataset
+from spl_al.linear_probe import LinearProbe
+from spl_al.pool import initial_labeled_set
 
 SEEDS = (1, 2, 3)
 C_VALUES = (0.1, 1.0, 10.0)
@@ -42,8 +52,6 @@ def probe_scores(
     """Validation accuracy of the linear probe fitted on ``labeled`` (sample indices);
     ``embeddings``: (N, G, d) of every sample's images."""
     from threadpoolctl import threadpool_limits
-
-    from spl_al.linear_probe import LinearProbe
 
     g = embeddings.shape[1] if variants else 1
     x = embeddings[labeled, :g].reshape(-1, embeddings.shape[-1])
@@ -57,6 +65,7 @@ def probe_scores(
 def encode_fit_part(dataset, fit_idx, encoder_cfg: dict, *, log=print):
     """The encoder trained on the fit part's frames, the embeddings (N, G, d) of every
     sample of ``dataset``, and its training record."""
+    # torch on demand (importing this module does not load it)
     from spl_al.training.contrastive import EncoderConfig, embed, train_encoder
 
     depth, valid = dataset.groups(fit_idx)
@@ -74,9 +83,8 @@ def encode_fit_part(dataset, fit_idx, encoder_cfg: dict, *, log=print):
 
 def compare(dataset, entry: dict, *, seeds=SEEDS, c_values=C_VALUES, cnn=True, log=print):
     """One row per budget: probe (per C, observed / with variants) and CNN scores."""
-    from spl_al.bench.learnability import learner_score, tuning_split
+    # pandas on demand (importing this module does not load it)
     from spl_al.experiment.plan import labeled_at
-    from spl_al.pool import initial_labeled_set
 
     embedding = entry["embedding"]
     fit_idx, held_out = tuning_split(dataset)
@@ -117,6 +125,7 @@ def compare(dataset, entry: dict, *, seeds=SEEDS, c_values=C_VALUES, cnn=True, l
 def dense_embeddings(encoder, depth_m, valid, *, batch_size: int = 64) -> np.ndarray:
     """(n, H, W, c) per-pixel features of a frozen encoder: the last feature map of each
     of its SmallCNN's stages, bilinearly upsampled to the image and concatenated (fp32)."""
+    # torch on demand (importing this module does not load it)
     import torch
     import torch.nn.functional as F
 
@@ -142,11 +151,11 @@ def segmentation_probe(dataset, labeled, held_out, *, dense, seed: int) -> float
     """Validation mIoU of a per-pixel logistic regression on a pixel's local depth
     features (``learnability.pixel_features``) and the frozen encoder's ``dense``
     features (n, H, W, c) of every sample, fitted on the ``labeled`` samples' pixels."""
+    # torch, scikit-learn and threadpoolctl on demand (importing this module does not load them)
     from sklearn.linear_model import LogisticRegression
     from sklearn.preprocessing import StandardScaler
     from threadpoolctl import threadpool_limits
 
-    from spl_al.bench.learnability import pixel_features
     from spl_al.training.metrics import confusion_per_image, segmentation_summary
 
     def features(idx):
@@ -177,9 +186,8 @@ def compare_segmentation(dataset, entry: dict, *, seeds=SEEDS, log=print):
     (``embedding.encoder``, trained on the fit part). A point cloud's points are its
     scan's valid pixels, so the per-pixel heads are per-point heads there, scored by
     the same mIoU over valid pixels as the network."""
-    from spl_al.bench.learnability import learner_score, linear_reference, tuning_split
+    # torch and pandas on demand (importing this module does not load them)
     from spl_al.experiment.plan import labeled_at
-    from spl_al.pool import initial_labeled_set
     from spl_al.training.contrastive import EncoderConfig, train_encoder
 
     fit_idx, held_out = tuning_split(dataset)
@@ -247,9 +255,6 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--no-cnn", action="store_true", help="the probe alone (seconds)")
     args = parser.parse_args(argv)
     import yaml
-
-    from spl_al.bench.learnability import default_datasets
-    from spl_al.data import Dataset
 
     config = yaml.safe_load(args.config.read_text())
     # classification entries with an embedding framework; a segmentation one named with

@@ -33,7 +33,9 @@ from pathlib import Path
 import yaml
 
 from spl_al.bench.timing import markdown_table
-from spl_al.config import drop_removed
+from spl_al.bench.training import case_model, measure, random_data
+from spl_al.config import drop_removed, select_datasets
+from spl_al.training import TrainConfig
 
 ROOT = Path(__file__).resolve().parents[3]
 
@@ -48,8 +50,6 @@ def merged_config(paths: list[Path]) -> dict:
                 update(base[key], value)
             else:
                 base[key] = copy.deepcopy(value)
-
-    from spl_al.config import select_datasets
 
     config = yaml.safe_load((ROOT / "config" / "config.yaml").read_text())
     user: dict = {}
@@ -77,6 +77,7 @@ def split_sizes(entry: dict) -> tuple[int, int, int]:
 
 def method_variants(config: dict, dataset: str, method: str) -> int:
     """Variants per labeled group that ``method`` trains on (0: observed images only)."""
+    # pandas on demand (importing this module does not load it)
     from spl_al.experiment.plan import dataset_method
 
     n_variants = int(config["datasets"][dataset]["variants"]["n"])
@@ -86,8 +87,8 @@ def method_variants(config: dict, dataset: str, method: str) -> int:
 def protocol_images(config: dict, dataset: str) -> dict:
     """Training jobs, optimiser steps, training images and forward-pass images of a
     dataset's protocol."""
+    # pandas on demand (importing this module does not load it)
     from spl_al.experiment.plan import dataset_runs, labeled_at
-    from spl_al.training import TrainConfig
 
     entry = config["datasets"][dataset]
     n_pool, n_test, _ = split_sizes(entry)
@@ -130,8 +131,6 @@ def protocol_images(config: dict, dataset: str) -> dict:
 
 def model_case(config: dict, dataset: str):
     """(task, model, model config, fit dict, image shape, n_classes) of a dataset."""
-    from spl_al.bench.training import case_model
-
     entry = config["datasets"][dataset]
     shape = tuple(entry["synthesis"]["image_shape"])
     _, _, n_classes = split_sizes(entry)
@@ -145,10 +144,10 @@ def flops_per_image(
     task: str, model, *, shape, n_classes: int, batch: int = 8
 ) -> tuple[float, float]:
     """(training step FLOPs, forward FLOPs) per image, counted on a batch of ``batch``."""
+    # torch on demand (importing this module does not load it)
     import torch
     from torch.utils.flop_counter import FlopCounterMode
 
-    from spl_al.bench.training import random_data
     from spl_al.models import model_input
 
     depth, valid, targets = random_data(task, shape, n=batch, n_classes=n_classes)
@@ -190,8 +189,6 @@ def main(argv: list[str]) -> int:
             rates[name] = float(value)
         except ValueError:
             parser.error(f"--rate must read DATASET=IMAGES_PER_S, got {item!r}.")
-
-    from spl_al.bench.training import measure
 
     config = merged_config(args.configfile)
     effective = args.peak_tflops * 1e12 * args.utilisation

@@ -57,6 +57,7 @@ def _rss_mb() -> float:
 
 
 def _frame_cost_child(conn, events, sensor, weights, repeats):
+    # torch on demand (importing this module does not load it)
     import resource
 
     from spl_al.photon.sspi.weights import load_sspi
@@ -180,6 +181,7 @@ def main(argv: list[str]) -> int:
     parser.add_argument("--sbr", type=float, nargs="+", default=list(SBR))
     args = parser.parse_args(argv)
 
+    # torch on demand (importing this module does not load it)
     from spl_al.photon.sspi.weights import load_sspi
 
     net = load_sspi(args.weights)  # fails early, saying where to get the weights

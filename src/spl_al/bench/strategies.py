@@ -190,6 +190,7 @@ def forward_gflop(model, shape) -> float:
 
 def _throughput(task: str, arch: str, shape: tuple[int, int], batch: int, steps: int, **params):
     """Training images/s of ``train`` itself (after a warm-up run) and forward GFLOP/image."""
+    # torch on demand (importing this module does not load it)
     from spl_al.models import build_model
     from spl_al.training import Compute, TrainConfig, train
 

@@ -68,11 +68,13 @@ def random_data(task: str, shape, *, n: int, n_classes: int, seed: int = 0):
 def case_model(task: str, model_cfg: dict, shape, n_classes: int):
     """The model a bench case times: ``model_cfg`` built for ``shape`` (with the scanning
     grid where the architecture needs one)."""
+    # torch on demand (importing this module does not load it)
     from spl_al.models import build_model, needs_grid
 
     cfg = dict(model_cfg)
     arch = cfg.pop("arch", None)
     if needs_grid(task, arch):
+        # numpy on demand (importing this module does not load it)
         from spl_al.scenes.street import default_grid
 
         cfg["grid"] = default_grid(shape)
@@ -84,6 +86,7 @@ def measure(
 ):
     """(train images/s, inference images/s) of one case; inference at ``infer_precision``
     (default: ``precision``)."""
+    # torch on demand (importing this module does not load it)
     import torch
 
     from spl_al.training import Compute, TrainConfig, predict, train
@@ -136,6 +139,7 @@ def sync(device: str) -> None:
 
 def main(argv: list[str]) -> int:
     """Time every default model at every precision; print the table; the exit code."""
+    # torch on demand (importing this module does not load it)
     import torch
 
     from spl_al.models import model_class

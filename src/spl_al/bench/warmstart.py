@@ -29,6 +29,7 @@ import numpy as np
 
 from spl_al.bench.learnability import default_datasets, recipe_overrides, tuning_split
 from spl_al.bench.timing import markdown_table
+from spl_al.training.compute import Compute
 
 SEEDS = (1, 2, 3)
 HEADER = ["dataset", "training", "start", "steps (rounds >= 1)", "core s", "accuracy by labeled"]
@@ -36,6 +37,7 @@ HEADER = ["dataset", "training", "start", "steps (rounds >= 1)", "core s", "accu
 
 def budget_counts(entry: dict) -> list[int]:
     """Labeled groups at every round of the dataset's budget experiment."""
+    # pandas on demand (importing this module does not load it)
     from spl_al.experiment.plan import labeled_at
 
     rounds = int(entry["experiments"]["budget"]["rounds"])
@@ -47,9 +49,9 @@ def sequence_scores(
 ) -> tuple[list[float], float]:
     """Validation scores (%) of one random-sampling sequence, and its seconds: every
     round trained cold, or (``warm``) rounds >= 1 fine-tuned with those fit fields."""
+    # torch on demand (importing this module does not load it)
     from spl_al.models.configured import model_for
     from spl_al.training import evaluate
-    from spl_al.training.compute import Compute
     from spl_al.training.groups import train_groups
 
     Compute(threads=1).apply()  # one thread, as a pipeline job trains (process time)

@@ -17,6 +17,11 @@ import argparse
 import sys
 from pathlib import Path
 
+from spl_al.data import Dataset, make_classification_dataset, make_segmentation_dataset
+from spl_al.data.external import load_folder
+from spl_al.data.pictures import contact_sheet, variants_sheet
+from spl_al.data.variants import attach_variants, generate_variants
+
 
 def _shape(text: str) -> tuple[int, int]:
     try:
@@ -92,11 +97,7 @@ def _parser() -> argparse.ArgumentParser:
 
 def run(args: argparse.Namespace) -> str:
     """Execute one command; returns what to print."""
-    from spl_al.data import Dataset
-
     if args.command in ("classification", "segmentation"):
-        from spl_al.data import make_classification_dataset, make_segmentation_dataset
-
         kw = {
             "image_shape": args.image_shape,
             "seed": args.seed,
@@ -111,8 +112,6 @@ def run(args: argparse.Namespace) -> str:
         data.save(args.out)
         return data.summary()
     if args.command == "import":
-        from spl_al.data.external import load_folder
-
         data = load_folder(
             args.root,
             depth_key=args.depth_key,
@@ -127,8 +126,6 @@ def run(args: argparse.Namespace) -> str:
         data.save(args.out)
         return data.summary()
     if args.command == "variants":
-        from spl_al.data.variants import generate_variants
-
         data = Dataset.load(args.dataset)
         shard = generate_variants(
             data, n_variants=args.n_variants, seed=args.seed, shard=args.shard, workers=args.workers
@@ -136,14 +133,10 @@ def run(args: argparse.Namespace) -> str:
         shard.save(args.out)
         return f"{len(shard.indices)} samples x {args.n_variants} variants -> {args.out}"
     if args.command == "attach":
-        from spl_al.data.variants import attach_variants
-
         data = attach_variants(Dataset.load(args.dataset), args.shards)
         data.save(args.out)
         return data.summary()
     if args.command == "sheets":
-        from spl_al.data.pictures import contact_sheet, variants_sheet
-
         data = Dataset.load(args.dataset)
         written = [contact_sheet(data, args.out_dir / "contact.png", per_class=args.per_class)]
         if data.n_variants:

@@ -44,6 +44,8 @@ import numpy as np
 from spl_al.data import storage
 from spl_al.label_codes import IGNORE_INDEX, UNKNOWN_CLASS
 from spl_al.photon import SensorParams
+from spl_al.scenes.raycast import ScanGrid
+from spl_al.scenes.street import range_image_to_points
 
 FORMAT = "spl-al-dataset"
 VERSION = 1
@@ -327,8 +329,6 @@ class Dataset:
 
     def grid(self):
         """The scan grid of the images (``ScanGrid``), from ``meta["grid"]``."""
-        from spl_al.scenes.raycast import ScanGrid
-
         g = self.meta.get("grid")
         if g is None:
             raise ValueError("this dataset records no scan grid (meta['grid']); points need one.")
@@ -341,8 +341,6 @@ class Dataset:
         of that image; labels are the per-pixel labels (segmentation) or the image's
         class repeated (classification). X right, Y forward, Z up, metres.
         """
-        from spl_al.scenes.street import range_image_to_points
-
         if source == "observed":
             depth = self.depth_m[index]
         elif source == "clean":

@@ -179,6 +179,7 @@ def reconstruct_shard(root, files: list[str], *, out_path, options: CaptureOptio
     The file holds, per frame k, ``{k}/{name}`` for every release array and ``files``,
     the relative paths in order. Returns the number of frames.
     """
+    # scipy on demand (importing this module does not load it)
     from spl_al.photon.release import reconstruct_capture
 
     root = Path(root)

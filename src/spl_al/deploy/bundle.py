@@ -14,6 +14,7 @@ from pathlib import Path
 import numpy as np
 
 from spl_al.deploy.card import card_path, file_sha256, read_card
+from spl_al.scenes.raycast import ScanGrid
 
 MODEL_SUFFIXES = (".pt", ".onnx")
 
@@ -57,13 +58,12 @@ class DeployedModel:
 
 def build_torch_model(card: dict):
     """The card's architecture with fresh weights (``spl_al.models.build_model``)."""
+    # torch on demand (importing this module does not load it)
     from spl_al.models import build_model, needs_grid
 
     model = card["model"]
     params = dict(model["params"])
     if needs_grid(model["task"], model["arch"]):
-        from spl_al.scenes.raycast import ScanGrid
-
         grid = model.get("grid") or {}
         params["grid"] = ScanGrid(
             tuple(card["data"]["image_shape"]),
@@ -128,6 +128,7 @@ def open_model(path, card=None, threads: int | None = None) -> DeployedModel:
         _check_file(path, card_dict, where, "onnx")
         return DeployedModel(path, card_dict, "onnxruntime", onnx_session(path, threads))
     _check_file(path, card_dict, where, "model")
+    # torch on demand (importing this module does not load it)
     from spl_al.deploy.graph import DeployGraph
 
     if threads:

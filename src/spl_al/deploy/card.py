@@ -22,7 +22,12 @@ from pathlib import Path
 
 import numpy as np
 
+import spl_al
 from spl_al.atomic import atomic_write_text, read_json, write_json
+from spl_al.data import SCENE_FIELDS, Dataset
+from spl_al.data.dataset import sensor_to_dict
+from spl_al.plotting import class_colours
+from spl_al.pool import read_labeled
 
 CARD_FORMAT = "spl-al-model-card"
 CARD_VERSION = 1
@@ -117,6 +122,7 @@ def training_conditions(dataset, rows, n_variants: int) -> dict:
 
 
 def _model_section(dataset, facts: RunFacts, model_path) -> dict:
+    # torch on demand (importing this module does not load it)
     from spl_al.models import model_class
 
     model_cfg = dict(facts.train.get("model", {}))
@@ -137,6 +143,7 @@ def _model_section(dataset, facts: RunFacts, model_path) -> dict:
 
 
 def _archs(task: str) -> dict:
+    # torch on demand (importing this module does not load it)
     from spl_al.models import ARCHS
 
     return ARCHS[task]
@@ -148,8 +155,6 @@ def _input_kind(cls, params: dict) -> str:
 
 
 def _data_section(dataset, facts: RunFacts, rows, n_variants: int) -> dict:
-    from spl_al.data.dataset import sensor_to_dict
-    from spl_al.plotting import class_colours
 
     return {
         "name": facts.dataset,
@@ -203,10 +208,6 @@ def build_card(
         facts: what the config says of the run (``RunFacts``).
         robustness_path: the method's ``robustness/{method}.json``, or None.
     """
-    import spl_al
-    from spl_al.data import SCENE_FIELDS, Dataset
-    from spl_al.pool import read_labeled
-
     dataset = Dataset.load(dataset_path, skip=SCENE_FIELDS)
     pool_idx = read_labeled(labeled_path)
     rows = dataset.train_idx[pool_idx]

@@ -31,6 +31,7 @@ def export_main(argv: list[str]) -> int:
     parser.add_argument("--dataset", help="the model's dataset.npz (default: the card's)")
     parser.add_argument("--card", help="the model's card (default: MODEL.card.json beside it)")
     args = parser.parse_args(argv)
+    # numpy on demand (importing this module does not load it)
     from spl_al.deploy.export import export_onnx
 
     try:
@@ -41,6 +42,7 @@ def export_main(argv: list[str]) -> int:
 
 
 def _capture_arguments(parser: argparse.ArgumentParser) -> None:
+    # numpy on demand (importing this module does not load it)
     from spl_al.photon.io import FORMATS
     from spl_al.photon.reconstruct import METHODS
 
@@ -76,6 +78,7 @@ def predict_main(argv: list[str]) -> int:
     parser.add_argument("--depth-key", default="depth_ssp", help="depth array of release files")
     _capture_arguments(parser)
     args = parser.parse_args(argv)
+    # numpy on demand (importing this module does not load it)
     from spl_al.deploy.predict import predict
 
     names = (*_OVERRIDES, "time_axis", "channel")

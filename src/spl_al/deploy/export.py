@@ -24,6 +24,8 @@ from pathlib import Path
 import numpy as np
 
 from spl_al.atomic import atomic_write
+from spl_al.data import SCENE_FIELDS, Dataset
+from spl_al.deploy.bundle import onnx_session, open_model
 from spl_al.deploy.card import card_path, file_sha256, write_card
 
 OPSET = 17
@@ -58,8 +60,6 @@ def _test_split(card: dict, dataset_path) -> tuple[np.ndarray, np.ndarray]:
     so torch and onnxruntime see the same voids: a reconstruction can mark a pixel
     valid at exactly 0 m (7 of 2.5 million pixels of real_cls), which the deployed
     graph treats as a void."""
-    from spl_al.data import SCENE_FIELDS, Dataset
-
     path = dataset_path or card["data"].get("path")
     if not path or not Path(path).is_file():
         raise ValueError(
@@ -73,6 +73,7 @@ def _test_split(card: dict, dataset_path) -> tuple[np.ndarray, np.ndarray]:
             f"{card['data']['classes']}; give the dataset the model was trained on."
         )
     test = dataset.test_idx
+    # torch on demand (importing this module does not load it)
     import torch
 
     from spl_al.deploy.graph import valid_of
@@ -84,6 +85,7 @@ def _test_split(card: dict, dataset_path) -> tuple[np.ndarray, np.ndarray]:
 
 def torch_logits(model, depth_m, valid, batch_size: int = 64) -> np.ndarray:
     """Logits of the library's own path (``model_input`` then the model), in batches."""
+    # torch on demand (importing this module does not load it)
     import torch
 
     from spl_al.models import model_input
@@ -114,8 +116,6 @@ def check_onnx(onnx_path, model, *, depth_m, valid, batch_size: int = 64) -> dic
     """onnxruntime on ``onnx_path`` against torch on the same (n, H, W) images."""
     import onnxruntime as ort
 
-    from spl_al.deploy.bundle import onnx_session
-
     session = onnx_session(onnx_path)
     ort_logits = np.concatenate(
         [
@@ -137,6 +137,7 @@ def check_onnx(onnx_path, model, *, depth_m, valid, batch_size: int = 64) -> dic
 def write_onnx(model, tmp: Path, shape) -> None:
     """Export ``model`` behind its preprocessing (``DeployGraph``) to the ONNX file ``tmp``:
     opset ``OPSET``, dynamic batch, traced on a batch of two ``shape`` images."""
+    # torch on demand (importing this module does not load it)
     import torch
 
     from spl_al.deploy.graph import INPUT_NAME, OUTPUT_NAMES, DeployGraph
@@ -160,6 +161,7 @@ def write_onnx(model, tmp: Path, shape) -> None:
 
 
 def _onnx_section(out_path: Path, tmp: Path, check: dict) -> dict:
+    # torch and onnx on demand (importing this module does not load them)
     import onnx
 
     from spl_al.deploy.graph import INPUT_NAME, OUTPUT_NAMES
@@ -189,8 +191,6 @@ def export_onnx(model_path, out_path, *, dataset_path=None, card=None, log=print
             or not matching it, an architecture that cannot be exported, a dataset
             that is not the model's, or a check outside the bounds.
     """
-    from spl_al.deploy.bundle import open_model
-
     out_path = Path(out_path)
     _check_out(out_path)
     deployed = open_model(model_path, card)

@@ -78,6 +78,7 @@ def _release_frame(path: Path, name: str, arrays, depth_key: str) -> Frame:
 
 
 def _capture_frame(path: Path, name: str, options: CaptureOptions, weights) -> Frame:
+    # scipy on demand (importing this module does not load it)
     from spl_al.photon.release import reconstruct_capture
 
     rec = reconstruct_capture(

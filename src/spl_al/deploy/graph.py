@@ -19,6 +19,8 @@ from __future__ import annotations
 import torch
 from torch import nn
 
+from spl_al.models import model_input
+
 INPUT_NAME = "depth_m"
 OUTPUT_NAMES = ("logits", "probabilities")
 
@@ -39,8 +41,6 @@ class DeployGraph(nn.Module):
 
     def forward(self, depth_m: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
         """depth_m (B, H, W) -> logits and softmax probabilities over the class axis 1."""
-        from spl_al.models import model_input
-
         valid = valid_of(depth_m)
         depth = torch.where(valid, depth_m, torch.nan)
         logits = self.model(model_input(self.model, depth, valid))[0]

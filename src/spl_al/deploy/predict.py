@@ -27,6 +27,7 @@ from pathlib import Path
 
 import numpy as np
 
+from spl_al.deploy.bundle import open_model
 from spl_al.deploy.frames import RELEASE_DEPTH_KEY, Frame, capture_options, read_frames
 from spl_al.label_codes import IGNORE_INDEX
 
@@ -203,8 +204,6 @@ def predict(
         ValueError: one sentence for a model without a matching card, an unreadable
             input, an image shape the model cannot take or an unknown class set.
     """
-    from spl_al.deploy.bundle import open_model
-
     deployed = open_model(model_path, card)
     options = capture_options(deployed.card["data"].get("reconstruction"), overrides)
     frames = read_frames(inputs, options, depth_key, weights)

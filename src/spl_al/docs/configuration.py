@@ -207,6 +207,7 @@ def main(argv: list[str] | None = None) -> int:
             print(f"{out} is out of date: run `{COMMAND}`.", file=sys.stderr)
             return 1
         return 0
+    # numpy on demand (importing this module does not load it)
     from spl_al.atomic import atomic_write_text
 
     atomic_write_text(out, page)

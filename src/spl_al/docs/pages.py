@@ -37,6 +37,7 @@ import sys
 from datetime import UTC, datetime
 from pathlib import Path
 
+from spl_al.atomic import atomic_write_text
 from spl_al.docs.markers import block, markers, replace_block
 from spl_al.report.table_kinds import TABLE_KINDS
 
@@ -632,7 +633,6 @@ def update_pages(
         raise ValueError(f"{results} holds no dataset with tables/budget.csv.")
     if not page.replace("-", "").replace("_", "").isalnum():
         raise ValueError(f"--page must be a plain name like 'decisive', got {page!r}.")
-    from spl_al.atomic import atomic_write_text
 
     # Both texts are made before anything is written: a README without its block
     # leaves every file as it was.

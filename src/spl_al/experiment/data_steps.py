@@ -11,6 +11,19 @@ from pathlib import Path
 
 import numpy as np
 
+from spl_al.data import Dataset, contact_sheet, raw_captures, variants_sheet
+from spl_al.data.raw_captures import CaptureOptions, write_release
+from spl_al.data.sources import build_dataset
+from spl_al.data.variants import (
+    VariantShard,
+    attach_variants,
+    default_conditions,
+    generate_variants,
+    shard_indices,
+    variants_of_image,
+)
+from spl_al.photon import SensorParams
+
 
 def make_dataset(entry: dict, out_path, release_dir=None) -> dict:
     """Build a dataset's observed images from its source and save them to ``out_path``.
@@ -20,8 +33,6 @@ def make_dataset(entry: dict, out_path, release_dir=None) -> dict:
     reads are in its module). A captures dataset is read from ``release_dir``, the
     release-layout folder ``release_captures`` made of its captures.
     """
-    from spl_al.data.sources import build_dataset
-
     dataset = build_dataset(entry, release_dir=release_dir)
     dataset.save(out_path)
     return {"samples": len(dataset), "standin": dataset.meta["synthetic_standin"]}
@@ -29,8 +40,6 @@ def make_dataset(entry: dict, out_path, release_dir=None) -> dict:
 
 def reconstruct_captures(entry: dict, shard: int, out_path, sspi_weights=None) -> dict:
     """Reconstruct shard ``shard`` of a captures dataset's files (``spl_al.data.raw_captures``)."""
-    from spl_al.data import raw_captures
-
     options = raw_captures.CaptureOptions.from_dict(entry.get("captures"))
     every = raw_captures.capture_files(entry["path"])
     files = raw_captures.shard_of(every, raw_captures.shard_count(options, len(every)), shard)
@@ -43,8 +52,6 @@ def reconstruct_captures(entry: dict, shard: int, out_path, sspi_weights=None) -
 
 def release_captures(entry: dict, shard_paths, out_dir) -> dict:
     """The release-layout folder of a captures dataset's reconstructions, levels split."""
-    from spl_al.data.raw_captures import CaptureOptions, write_release
-
     options = CaptureOptions.from_dict(entry.get("captures"))
     write_release(shard_paths, out_dir, options)
     return {"frames": sum(1 for _ in Path(out_dir).rglob("*.npz"))}
@@ -61,10 +68,6 @@ def make_variant_shard(
     variable so worker processes find it, and the expected time of the shard
     (one timed frame x the shard's variants) is printed first, into the job log.
     """
-    from spl_al.data import Dataset
-    from spl_al.data.variants import generate_variants, shard_indices
-    from spl_al.photon import SensorParams
-
     dataset = Dataset.load(observed_path)
     sensor = getattr(SensorParams, variants["sensor"])() if variants.get("sensor") else None
     conditions = [tuple(c) for c in variants["conditions"]] if variants.get("conditions") else None
@@ -96,9 +99,9 @@ def _announce_sspi_shard(dataset, sensor, conditions, n_frames: int, sspi_weight
     """Export the SSPI weights folder and print the shard's expected time: one frame (sample 0,
     the condition of median photon budget) timed, times the shard's variants. Variants are
     reconstructed on their returns' bounding box, so small objects take less."""
+    # torch on demand (importing this module does not load it)
     import os
 
-    from spl_al.data.variants import default_conditions, variants_of_image
     from spl_al.photon.sspi.weights import ENV_VAR, weights_folder
 
     os.environ[ENV_VAR] = str(weights_folder(sspi_weights).resolve())
@@ -132,9 +135,6 @@ def _announce_sspi_shard(dataset, sensor, conditions, n_frames: int, sspi_weight
 
 def merge_variants(observed_path, shard_paths, out_path) -> dict:
     """Attach every shard's variants to the observed dataset and save the whole."""
-    from spl_al.data import Dataset
-    from spl_al.data.variants import VariantShard, attach_variants
-
     dataset = attach_variants(
         Dataset.load(observed_path), [VariantShard.load(p) for p in shard_paths]
     )
@@ -144,8 +144,6 @@ def merge_variants(observed_path, shard_paths, out_path) -> dict:
 
 def data_pictures(dataset_path, contact_path, variants_path) -> None:
     """Contact sheet (clean vs observed per class) and one sample's variants sheet."""
-    from spl_al.data import Dataset, contact_sheet, variants_sheet
-
     dataset = Dataset.load(dataset_path)
     contact_sheet(dataset, contact_path)
     variants_sheet(dataset, int(dataset.test_idx[0]), variants_path)

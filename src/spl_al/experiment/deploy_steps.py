@@ -22,6 +22,7 @@ def model_card(
 ) -> dict:
     """Write the card of a round's model (``out_path``: ``model.card.json``, with the
     Markdown beside it); ``facts``: the fields of ``RunFacts``."""
+    # numpy on demand (importing this module does not load it)
     from spl_al.deploy.card import RunFacts, build_card, write_card
 
     card = build_card(
@@ -41,6 +42,7 @@ def export_model(
 ) -> dict:
     """Export ``model_path`` (its card at ``card_path``) to ``out_path`` (.onnx), checked
     on ``dataset_path``'s test split; the exported card goes beside it."""
+    # numpy on demand (importing this module does not load it)
     from spl_al.deploy.export import export_onnx
 
     compute.apply()

@@ -23,11 +23,20 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from spl_al import __version__
 from spl_al.atomic import atomic_write, read_json, write_json
+from spl_al.data import SCENE_FIELDS, Dataset
+from spl_al.data.dataset import LEVELS
 from spl_al.experiment.plan import MethodSpec, batch_of
 from spl_al.experiment.round_steps import QUERY_STREAM, step_seed
+from spl_al.linear_probe import DEFAULT_C, LinearProbe, probe_inputs
 from spl_al.models.configured import save_model
+from spl_al.pool import Pool, initial_labeled_set
+from spl_al.strategies import check_picks, get
+from spl_al.strategies.duis import check_candidate_pool
 from spl_al.training.compute import LOCAL, Compute
+from spl_al.training.contrastive import EncoderConfig, embed
+from spl_al.training.contrastive import train_encoder as fit_encoder
 
 FRAMEWORK = "embedding"
 CARD_KEYS = ("dataset", "variants", "image_shape")
@@ -35,8 +44,6 @@ CARD_KEYS = ("dataset", "variants", "image_shape")
 
 def encoder_card(*, dataset: str, variants: dict, image_shape, encoder: dict, record: dict):
     """The encoder's card: what it was trained on and how (JSON-ready)."""
-    from spl_al import __version__
-
     return {
         "framework": FRAMEWORK,
         "dataset": dataset,
@@ -85,10 +92,6 @@ def train_encoder(
     every image of each training group, ``test`` (n_test, d) of the test split's
     observed images, and the split's indices). Returns the card.
     """
-    from spl_al.data import SCENE_FIELDS, Dataset
-    from spl_al.training.contrastive import EncoderConfig, embed
-    from spl_al.training.contrastive import train_encoder as fit_encoder
-
     compute.apply()
     data = Dataset.load(dataset_path, skip=SCENE_FIELDS)
     cfg = EncoderConfig.from_dict(encoder)
@@ -175,9 +178,6 @@ def probe_runs(
     """
     from threadpoolctl import threadpool_limits
 
-    from spl_al.data import SCENE_FIELDS, Dataset
-    from spl_al.linear_probe import DEFAULT_C
-
     data = Dataset.load(dataset_path, skip=SCENE_FIELDS)
     check_card(
         read_json(card_path),
@@ -227,8 +227,6 @@ def probe_runs(
 def _record(facts: ProbeData, model, method: str, *, which, n_labeled, n_images) -> dict:
     """The metrics record of one round: ``model`` measured on the test split.
     ``which``: (dataset, seed, round); ``n_images``: the images it was fitted on."""
-    from spl_al.data.dataset import LEVELS
-
     dataset, seed, round_ = which
     correct = model.predict_proba(facts.test).argmax(axis=1) == facts.test_labels
     levels = facts.test_levels
@@ -255,11 +253,6 @@ def _record(facts: ProbeData, model, method: str, *, which, n_labeled, n_images)
 
 def _run(facts: ProbeData, spec: MethodSpec, *, which, al, rounds, c, n_variants) -> list[dict]:
     """The records of one (method, seed) run: fit, measure and query, round by round."""
-    from spl_al.linear_probe import LinearProbe, probe_inputs
-    from spl_al.pool import Pool, initial_labeled_set
-    from spl_al.strategies import check_picks, get
-    from spl_al.strategies.duis import check_candidate_pool
-
     dataset, seed = which
     strategy = get(spec.strategy, **spec.params)
     m_train = spec.train_variants(n_variants)

@@ -26,6 +26,11 @@ from pathlib import Path
 import numpy as np
 
 from spl_al.atomic import read_json, write_json
+from spl_al.data import SCENE_FIELDS, Dataset
+from spl_al.data.label_files import listed_samples, load_labels, save_labels
+from spl_al.labeling import read_label_file, write_batch
+from spl_al.pool import initial_labeled_set
+from spl_al.training.compute import Compute
 
 
 def initial_set(
@@ -33,13 +38,11 @@ def initial_set(
 ) -> dict:
     """The round-0 labeled set: ``round_steps.initial_set`` for a simulated oracle; for a
     human one the training rows of ``seed_labels`` (when it has any) or a random draw."""
+    # pandas on demand (importing this module does not load it)
     from spl_al.experiment import round_steps
 
     if oracle != "human":
         return round_steps.initial_set(dataset_path, al, seed, out_path)
-    from spl_al.data import Dataset
-    from spl_al.data.label_files import listed_samples
-    from spl_al.pool import initial_labeled_set
 
     if al.get("stratified_initial"):
         raise ValueError(
@@ -63,8 +66,8 @@ def _asked(record: dict) -> list[int]:
 def batch_probabilities(dataset, pool_indices, model_path, model_cfg: dict) -> np.ndarray:
     """The probabilities a saved model gives the observed images of training-pool groups
     ``pool_indices``: (n, C), or (n, C, H, W) for segmentation. Images only, no labels."""
+    # torch on demand (importing this module does not load it)
     from spl_al.models.configured import load_model
-    from spl_al.training.compute import Compute
     from spl_al.training.forward import predict
 
     model = load_model(dataset, model_cfg, model_path)
@@ -90,9 +93,6 @@ def label_batch(
     (the round before's), whose predictions become the Label Studio pre-annotations,
     tagged ``model_version``; without them (round 0) the tasks have none.
     """
-    from spl_al.data import SCENE_FIELDS, Dataset
-    from spl_al.labeling import write_batch
-
     dataset = Dataset.load(dataset_path, skip=SCENE_FIELDS)
     asked = _asked(read_json(request_path))
     probs = None
@@ -159,10 +159,6 @@ def accept_labels(
     The labels come from ``labels_file`` (CSV) or, in its place, from ``export_file``
     (a Label Studio JSON export); both present is refused.
     """
-    from spl_al.data import SCENE_FIELDS, Dataset
-    from spl_al.data.label_files import load_labels, save_labels
-    from spl_al.labeling import read_label_file
-
     record = read_json(request_path)
     asked = np.asarray(_asked(record), dtype=np.int64)
     labels_file = given_label_file(labels_file, export_file, batch_dir, asked.size)

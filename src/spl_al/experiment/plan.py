@@ -16,6 +16,10 @@ from dataclasses import dataclass, field
 
 from spl_al.data.sources import check_entry, is_synthesised
 from spl_al.report.table_kinds import TABLE_KINDS, TableContext
+from spl_al.scenes.objects import CATEGORIES
+from spl_al.strategies import get as get_strategy
+from spl_al.strategies import names as strategy_names
+from spl_al.strategies.duis import n_cand_error
 
 SWEEP_PARAMETERS = {"n_cand": "ncand", "alpha": "alpha", "n_variants": "m"}
 
@@ -113,10 +117,8 @@ def check_strategies(config: dict, specs: dict | None = None) -> None:
     why (e.g. a scikit-activeml class that needs a classifier, or scikit-activeml not
     installed). A method no experiment runs is not built, so the optional extras of
     the default config's unused methods need not be installed."""
-    from spl_al.strategies import get, names
-
     specs = specs if specs is not None else method_specs(config)
-    known = names()
+    known = strategy_names()
     for name, spec in specs.items():
         if spec.strategy not in known:
             raise ValueError(
@@ -136,7 +138,7 @@ def check_strategies(config: dict, specs: dict | None = None) -> None:
                 continue
             checked.add(key)
             try:
-                strategy = get(spec.strategy, **spec.params)
+                strategy = get_strategy(spec.strategy, **spec.params)
             except ValueError as err:
                 raise ValueError(f"config key 'methods.{name}': {err}") from None
             scored = set(strategy.needs) - FEATURE_NEEDS
@@ -363,8 +365,6 @@ def train_pool_size(entry: dict) -> int | None:
     syn = entry.get("synthesis") or {}
     test_fraction = float(syn.get("test_fraction", 0.3))
     if entry.get("task") == "classification":
-        from spl_al.scenes.objects import CATEGORIES
-
         n_per_class = int(syn.get("n_per_class", 100))
         n_classes = len(syn.get("classes") or CATEGORIES)
         return n_classes * (n_per_class - round(test_fraction * n_per_class))
@@ -388,9 +388,6 @@ def _check_batches(dataset: str, entry: dict, rounds: int) -> None:
 def _check_candidate_pools(config: dict, dataset: str, runs: dict, specs: dict) -> None:
     """N_cand at most half the unlabeled pool at every query, where the config fixes
     the pool's size."""
-    from spl_al.strategies import get
-    from spl_al.strategies.duis import n_cand_error
-
     entry = config["datasets"][dataset]
     n_train = train_pool_size(entry)
     if n_train is None:
@@ -401,7 +398,7 @@ def _check_candidate_pools(config: dict, dataset: str, runs: dict, specs: dict) 
     points = sweep_points(config)
     for method, rounds in sorted(rounds_of.items()):
         spec = dataset_method(config, dataset, method, specs)
-        n_cand = getattr(get(spec.strategy, **spec.params), "n_cand", None)
+        n_cand = getattr(get_strategy(spec.strategy, **spec.params), "n_cand", None)
         if n_cand is None:
             continue
         swept = points.get(method, {}).get("parameter") == "n_cand"

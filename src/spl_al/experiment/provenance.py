@@ -12,6 +12,8 @@ from __future__ import annotations
 
 from pathlib import Path
 
+from spl_al.config import SETTINGS_RECORDED
+
 OLDER_RESULTS = (
     "{results}/ was made by an older spl-al whose jobs did not record the settings they "
     "read, so each of its jobs reruns once to record them, unless the run is given "
@@ -82,7 +84,5 @@ def rerun_line(n_settings: int) -> str:
 def older_results(recorded_path) -> bool:
     """Whether the results folder whose ``config.yaml`` is ``recorded_path`` was made by
     an older spl-al, whose jobs recorded no settings (no ``SETTINGS_RECORDED`` line)."""
-    from spl_al.config import SETTINGS_RECORDED
-
     path = Path(recorded_path)
     return path.is_file() and SETTINGS_RECORDED not in path.read_text()

@@ -3,7 +3,9 @@ statistics from the per-round metrics records (pandas and matplotlib, no torch).
 
 from __future__ import annotations
 
-from spl_al.atomic import atomic_write, write_json
+from spl_al.atomic import atomic_write, atomic_write_text, write_json
+from spl_al.config import dataset_precision, write_config
+from spl_al.training.compute import Compute
 
 EMBEDDING_NOTE = (
     "embedding framework: each round a linear classifier on a frozen self-supervised "
@@ -13,6 +15,7 @@ EMBEDDING_NOTE = (
 
 def framework_notes(df) -> list[str]:
     """The note a table, figure or summary of these records carries for its framework."""
+    # pandas on demand (importing this module does not load it)
     from spl_al.report import framework_of
 
     return [EMBEDDING_NOTE] if framework_of(df) == "embedding" else []
@@ -23,6 +26,7 @@ def make_table(
 ) -> None:
     """The table of kind ``kind`` (``spl_al.report.table_kinds``) as CSV + MD + TeX;
     ``notes`` (e.g. ``spl_al.config.training_notes``) go into its caption."""
+    # pandas on demand (importing this module does not load it)
     from spl_al import report
     from spl_al.report.table_kinds import TableContext, table_kind
 
@@ -42,6 +46,7 @@ def make_curves(
     """Budget curves with ±std bands: overall (one panel per family of the budget
     experiment when it has a matched family: ``families``, {"paper": [...],
     "matched": [...]}), or one panel per MSPPP level."""
+    # pandas on demand (importing this module does not load it)
     from spl_al import report
 
     df = report.load_records(metrics_paths)
@@ -63,6 +68,7 @@ def make_summary(metrics_paths, out_path, notes=(), families=None) -> dict:
     """Per method: area under the budget curve and final value (JSON), with ``notes``
     (one sentence each, e.g. why per-level results are missing) and the budget
     experiment's ``families`` ({"paper": [...], "matched": [...]}, when given)."""
+    # pandas on demand (importing this module does not load it)
     from spl_al import report
 
     df = report.load_records(metrics_paths)
@@ -82,10 +88,10 @@ def make_stats(metrics_paths, experiments: dict, sweeps: dict, out: dict) -> Non
     paths by name (comparisons_csv, comparisons_md, claims_csv, claims_md,
     decomposition_csv, decomposition_md, aubc_png, aubc_pdf). Claims are judged on the
     comparisons as written, so the two files cannot disagree."""
+    # pandas on demand (importing this module does not load it)
     import pandas as pd
 
     from spl_al import report
-    from spl_al.atomic import atomic_write_text
     from spl_al.report.claims import at_precision, claims, render_claims_markdown
     from spl_al.report.comparisons import render_comparisons_markdown
     from spl_al.report.decomposition import decomposition, render_decomposition_markdown
@@ -124,9 +130,8 @@ def write_run_config(config: dict, out_path) -> dict:
     """Write the run's effective configuration with ``precision_used``: per dataset, the
     precision its models run at on the configured device (what ``precision: auto``
     resolved to here). Returns that mapping."""
-    from spl_al.config import dataset_precision, write_config
+    # torch on demand (importing this module does not load it)
     from spl_al.models import model_class
-    from spl_al.training.compute import Compute
 
     used = {}
     for name, entry in config["datasets"].items():

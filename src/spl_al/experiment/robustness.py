@@ -32,6 +32,15 @@ import numpy as np
 import pandas as pd
 
 from spl_al.atomic import read_json, write_json
+from spl_al.data import SCENE_FIELDS, Dataset, storage
+from spl_al.data.observe import image_through_photons, observation_of, observe
+from spl_al.data.seeds import STREAM_VARIANT, sample_rng
+from spl_al.experiment.round_steps import resolved_for
+from spl_al.photon import Condition, PhotonScene
+from spl_al.plotting import fit_texts, new_figure
+from spl_al.report.stat_figures import difference_figure, heatmap_figure
+from spl_al.report.stats import paired_test
+from spl_al.report.writers import atomic_write
 from spl_al.training.compute import LOCAL, Compute
 
 GRID_FORMAT = "spl-al-robustness-grid"
@@ -86,10 +95,6 @@ def grid_samples(dataset, test_samples: int | None) -> np.ndarray:
 
 def reimage(dataset, idx: np.ndarray, *, msppp: float, sbr: float, seed: int):
     """The samples ``idx`` imaged at (msppp, sbr): (depth (n, H, W) float32, source)."""
-    from spl_al.data.observe import image_through_photons, observation_of, observe
-    from spl_al.data.seeds import STREAM_VARIANT, sample_rng
-    from spl_al.photon import Condition, PhotonScene
-
     n = idx.size
     if dataset.clean_depth_m is not None:
         refl = None if dataset.clean_reflectance is None else dataset.clean_reflectance[idx]
@@ -125,8 +130,6 @@ def reimage(dataset, idx: np.ndarray, *, msppp: float, sbr: float, seed: int):
 def make_grid_shard(observed_path, grid: dict, shard: int, out_path) -> dict:
     """Shard ``shard`` of the dataset's robustness grid (``grid``: the config's
     msppp, sbr, shards, seed, test_samples), saved as one .npz of uint16 depth codes."""
-    from spl_al.data import Dataset, storage
-
     started = time.perf_counter()
     dataset = Dataset.load(observed_path)
     if dataset.sensor is None:
@@ -163,8 +166,6 @@ def make_grid_shard(observed_path, grid: dict, shard: int, out_path) -> dict:
 def load_grid(shard_paths) -> dict:
     """All shards of a grid: depth (C, n, H, W) float32 in condition order, msppp (C,),
     sbr (C,), sample_idx (n,), source."""
-    from spl_al.data import storage
-
     parts = [storage.read_npz(p, GRID_FORMAT) for p in shard_paths]
     if not parts:
         raise ValueError("no robustness grid shard given.")
@@ -202,8 +203,7 @@ def evaluate_grid(
     ``evaluate``) on ``compute``'s device at ``MEASURE_PRECISION`` (fp32); one record per
     seed, with the precision its model was trained at.
     """
-    from spl_al.data import SCENE_FIELDS, Dataset
-    from spl_al.experiment.round_steps import resolved_for
+    # torch on demand (importing this module does not load it)
     from spl_al.models.configured import load_model
     from spl_al.training import evaluate
 
@@ -265,8 +265,6 @@ def evaluate_grid(
 
 def training_range(observed_path) -> dict:
     """MSPPP and SBR range of the training split's observed images."""
-    from spl_al.data import SCENE_FIELDS, Dataset
-
     d = Dataset.load(observed_path, skip=SCENE_FIELDS)
     tr = d.train_idx
     return {
@@ -334,8 +332,6 @@ def difference_table(
     n, diff, ci_low, ci_high, p_value, resolved, spans_zero (the 95% interval contains
     zero or is undefined), trained_range. Empty when ``full`` or every baseline is missing.
     """
-    from spl_al.report.stats import paired_test
-
     methods = set(frame["method"])
     baselines = sorted(methods - {full})
     if full not in methods or not baselines:
@@ -383,9 +379,6 @@ def robustness_report(
     eval_paths, observed_path, *, table_csv, diff_csv, heatmap_png, diff_png
 ) -> dict:
     """Tables and figures of the robustness map of one dataset (see module docstring)."""
-    from spl_al.report.stat_figures import difference_figure, heatmap_figure
-    from spl_al.report.writers import atomic_write
-
     frame = robustness_frame(eval_paths)
     trained = training_range(observed_path)
     table = robustness_table(frame, trained)
@@ -410,7 +403,6 @@ def robustness_report(
 
 
 def _empty_figure(text: str):
-    from spl_al.plotting import fit_texts, new_figure
 
     fig = new_figure(4, 1.5)
     fig.text(0.5, 0.5, text, ha="center", va="center")

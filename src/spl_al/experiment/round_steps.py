@@ -14,9 +14,16 @@ from dataclasses import dataclass
 import numpy as np
 
 from spl_al.atomic import atomic_write, read_json, write_json
+from spl_al.data import SCENE_FIELDS, Dataset
+from spl_al.data.dataset import LEVELS
+from spl_al.data.label_files import labels_for
 from spl_al.experiment.plan import MethodSpec
 from spl_al.experiment.step_args import FRESH, ModelFiles, RoundId, RoundStart
-from spl_al.pool import read_labeled
+from spl_al.linear_probe import embedding_features
+from spl_al.pool import Pool, initial_labeled_set, read_labeled
+from spl_al.strategies import StrategyContractError, StrategyInputs, check_picks, get
+from spl_al.strategies.duis import check_candidate_pool
+from spl_al.strategies.inputs import ARRAY_FIELDS, GROUP_NEEDS, NEEDS
 from spl_al.training.compute import LOCAL, Compute
 
 # Streams of np.random.SeedSequence([seed, round, stream]): one per kind of draw.
@@ -38,9 +45,6 @@ def initial_set(dataset_path, al: dict, seed: int, out_path) -> dict:
     Reads only the dataset's split sizes (and, when stratified, the training labels:
     drawing the initial set is the oracle's job, not a strategy's).
     """
-    from spl_al.data import SCENE_FIELDS, Dataset
-    from spl_al.pool import initial_labeled_set
-
     dataset = Dataset.load(dataset_path, skip=SCENE_FIELDS)
     stratified = bool(al.get("stratified_initial", False)) and dataset.task == "classification"
     labels = dataset.labels[dataset.train_idx] if stratified else None
@@ -69,6 +73,7 @@ def write_initial_set(idx, seed: int, out_path) -> dict:
 def resolved_for(compute: Compute, dataset, model_cfg: dict) -> Compute:
     """``compute`` resolved for ``dataset``'s configured model (``Compute.resolved``):
     where a step decides, once, the device and what precision "auto" means there."""
+    # torch on demand (importing this module does not load it)
     from spl_al.models import model_class
 
     return compute.resolved(model_class(dataset.task, model_cfg.get("arch")))
@@ -118,6 +123,7 @@ def fit_and_evaluate(
     starts from them with ``fit`` updated by ``train_setup["warm_start"]`` (fewer
     steps), else from fresh weights.
     """
+    # torch on demand (importing this module does not load it)
     from spl_al.models.configured import load_model, model_for
     from spl_al.training import evaluate
     from spl_al.training.groups import train_groups
@@ -217,7 +223,7 @@ def train_initial(
     would compute itself) and, when ``n_variants`` > 0, the group needs on the M =
     ``n_variants`` variants.
     """
-    from spl_al.data import SCENE_FIELDS, Dataset
+    # torch on demand (importing this module does not load it)
     from spl_al.models.configured import save_model
 
     compute.apply()
@@ -265,9 +271,8 @@ def train_initial(
 def _score_every_need(model, dataset, *, pool_idx, m, out_path, compute) -> None:
     """Scores of the unlabeled pool for every strategy: the observed-image needs, and
     with ``m`` > 0 the group needs on M = ``m`` variants."""
+    # torch on demand (importing this module does not load it)
     from spl_al.scoring import compute_inputs
-    from spl_al.strategies import StrategyInputs
-    from spl_al.strategies.inputs import ARRAY_FIELDS, GROUP_NEEDS, NEEDS
 
     unlabeled = np.setdiff1d(np.arange(len(dataset.train_idx)), pool_idx)
     passes = [(0, frozenset(NEEDS) - GROUP_NEEDS)] + ([(m, GROUP_NEEDS)] if m else [])
@@ -292,8 +297,6 @@ def _score_every_need(model, dataset, *, pool_idx, m, out_path, compute) -> None
 def _score_variants(method: MethodSpec, needs, n_variants: int) -> int:
     """Variants per group a strategy's scoring runs on: its method's M when it needs
     group predictions (DUIS), else 0 (observed images only)."""
-    from spl_al.strategies.inputs import GROUP_NEEDS
-
     return method.variants_seen(n_variants) if needs & GROUP_NEEDS else 0
 
 
@@ -310,9 +313,6 @@ def _shared_round0(initial: ModelFiles, method: MethodSpec, pool_idx, out: Model
     weights copied, and the method's part of the shared scores; None when the shared
     scores lack the variants this method scores on (it then scores itself)."""
     import shutil
-
-    from spl_al.strategies import StrategyInputs, get
-    from spl_al.strategies.inputs import NEEDS
 
     fit = read_json(initial.record)
     m = method.train_variants(fit["dataset"]["n_variants"])
@@ -341,8 +341,6 @@ def _shared_round0(initial: ModelFiles, method: MethodSpec, pool_idx, out: Model
 def _metrics_record(facts, setup, which: RoundId, n_labeled, metrics, extra) -> dict:
     """The per-round record ``spl_al.report`` aggregates (``facts``: ``dataset_facts``;
     ``extra``: training images, steps and images seen, timing and precision)."""
-    from spl_al.data.dataset import LEVELS
-
     key = "accuracy" if facts["task"] == "classification" else "miou"
     ratio_of = setup.get("ratio_of", "train")
     n_total = facts["n_samples"] if ratio_of == "all" else facts["n_train"]
@@ -424,9 +422,8 @@ def train_round(
             write_json(record, out.record)
             return record
 
-    from spl_al.data import SCENE_FIELDS, Dataset
+    # torch on demand (importing this module does not load it)
     from spl_al.models.configured import save_model
-    from spl_al.strategies import StrategyInputs
 
     compute.apply()
     dataset = Dataset.load(dataset_path, skip=SCENE_FIELDS)
@@ -473,8 +470,6 @@ def _features_of(method: MethodSpec, scores_path, embeddings, n_variants: int) -
             f"method {method.name!r} selects on the self-supervised embedding "
             "(features: embedding), but the round was given no embeddings file."
         )
-    from spl_al.linear_probe import embedding_features
-    from spl_al.strategies import StrategyInputs
 
     with np.load(embeddings, allow_pickle=False) as f:
         train = f["train"]
@@ -500,6 +495,7 @@ def _round_model(dataset, pool_idx, *, setup, method, which, compute, log, start
     """The round's model: round 0's shared fit loaded (``start.initial``), else one
     trained on the labels of ``pool_idx`` (the dataset's, or a person's from
     ``start.labels_path``), from fresh weights or from ``start.previous_model``'s."""
+    # torch on demand (importing this module does not load it)
     from spl_al.models.configured import load_model
 
     m = method.train_variants(dataset.n_variants)
@@ -511,8 +507,6 @@ def _round_model(dataset, pool_idx, *, setup, method, which, compute, log, start
     if start.labels_path is None:
         given = dataset.labels[dataset.train_idx[pool_idx]]
     else:
-        from spl_al.data.label_files import labels_for
-
         given = labels_for(start.labels_path, pool_idx).astype(dataset.labels.dtype)
     return fit_and_evaluate(
         dataset,
@@ -541,8 +535,8 @@ def score_pool(
     strategy needs (``strategy.needs``), saved for the query step, on ``compute``'s
     device at ``MEASURE_PRECISION`` (fp32), whatever precision trained the model. No
     labels are read: the strategy inputs are built from images and the model alone."""
+    # torch on demand (importing this module does not load it)
     from spl_al.scoring import compute_inputs
-    from spl_al.strategies import get
 
     started = time.perf_counter()
     # What to compute depends on the strategy alone, not on its parameters.
@@ -574,7 +568,7 @@ def score_round(
     compute: Compute = LOCAL,
 ) -> dict:
     """``score_pool`` for a saved model: rescore a round without retraining."""
-    from spl_al.data import SCENE_FIELDS, Dataset
+    # torch on demand (importing this module does not load it)
     from spl_al.models.configured import load_model
 
     compute.apply()
@@ -616,10 +610,6 @@ def query_round(
     from another package may override ``select``): ``batch`` (or every remaining)
     distinct indices of unlabeled groups. Else ``StrategyContractError``, one sentence
     naming the round, the strategy and what it returned, and nothing is written."""
-    from spl_al.pool import Pool
-    from spl_al.strategies import StrategyContractError, StrategyInputs, check_picks, get
-    from spl_al.strategies.duis import check_candidate_pool
-
     spec = MethodSpec(name="", **method)
     inputs = StrategyInputs.load(scores_path)
     labeled = read_labeled(labeled_path)

@@ -17,6 +17,7 @@ import torch.nn.functional as F
 from torch import nn
 
 from spl_al.models.classifier import init_conv_bn
+from spl_al.models.normalise import to_input
 from spl_al.models.registry import register
 
 
@@ -110,8 +111,6 @@ class UNet(nn.Module):
 def _absolute_input(x: torch.Tensor) -> torch.Tensor:
     """(B, 2, H, W) range in metres and validity -> (B, 4, H, W): standardised depth,
     validity, log(1 + range) / log(1 + 100 m), and the row's position in [-1, 1]."""
-    from spl_al.models.normalise import to_input
-
     range_m, valid = x[:, 0], x[:, 1] > 0
     z = to_input(torch.where(valid, range_m, torch.nan), valid)
     log_range = torch.where(valid, torch.log1p(range_m.clamp_min(0)) / math.log1p(100.0), 0.0)

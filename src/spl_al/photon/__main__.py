@@ -15,7 +15,8 @@ from __future__ import annotations
 import argparse
 import sys
 
-from spl_al.photon.io import FORMATS
+from spl_al.photon import pictures
+from spl_al.photon.io import FORMATS, READ_KEYS, ReadOptions
 from spl_al.photon.reconstruct import METHODS
 
 
@@ -44,8 +45,6 @@ def _capture_options(parser: argparse.ArgumentParser) -> None:
 
 def _options(args):
     """The reader options of the command line: those of a dataset's ``captures:``."""
-    from spl_al.photon.io import READ_KEYS, ReadOptions
-
     return ReadOptions(**{name: getattr(args, name) for name in READ_KEYS})
 
 
@@ -70,6 +69,7 @@ def reconstruct_main(argv: list[str]) -> int:
     parser.add_argument("--method", choices=METHODS, default="pooled")
     _capture_options(parser)
     args = parser.parse_args(argv)
+    # scipy on demand (importing this module does not load it)
     from spl_al.photon.release import reconstruct_capture, save_release
 
     try:
@@ -108,8 +108,6 @@ def main(argv: list[str] | None = None) -> int:
     _capture_options(parser)
     args = parser.parse_args(argv)
 
-    from spl_al.photon import pictures
-
     try:
         if args.demo:
             pictures.render_condition_grid(
@@ -126,6 +124,7 @@ def main(argv: list[str] | None = None) -> int:
 
 def _real(args, pictures) -> None:
     """--real: pictures of a capture with the sensor from its file and its photons."""
+    # scipy on demand (importing this module does not load it)
     from spl_al.photon.calibration import estimate_pulse_sigma
 
     args.capture, out = args.real

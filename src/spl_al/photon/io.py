@@ -37,6 +37,8 @@ from spl_al.photon import formats
 from spl_al.photon.capture import Capture, time_unit_s
 from spl_al.photon.events import PhotonEvents
 from spl_al.photon.formats import MAT_SUFFIX, FileOptions
+from spl_al.photon.formats.cube import names_a_bin_width
+from spl_al.photon.formats.matfile import describe_variables, read_mat
 
 # All derived from the registry (``spl_al.photon.formats``): a new format adds itself.
 # These are the formats registered at import (every module in ``formats/__init__``);
@@ -109,7 +111,6 @@ def load_capture(
         raise ValueError(f"{path}: not a capture file this reader knows; {_supported()}.")
     if suffix != MAT_SUFFIX:
         return (fmt or formats.of_suffix(suffix)[0]).read(path, options, None)
-    from spl_al.photon.formats.matfile import read_mat
 
     variables = read_mat(path)
     return (fmt or _detect_mat(path, variables, key)).read(path, options, variables)
@@ -121,7 +122,6 @@ def _detect_mat(path: Path, variables: dict, key: str | None) -> formats.Capture
         names = fmt.detect(variables)
         if (key is None and names) or key in names:
             return fmt
-    from spl_al.photon.formats.matfile import describe_variables
 
     raise ValueError(
         f"{path}: no photon data found among its variables "
@@ -198,8 +198,6 @@ class ReadOptions:
         """One sentence when ``path`` is a .npy/.npz/HDF5 count cube that states no bin
         width and these options give none, naming ``setting`` (the key to set); else
         None. Read without the counts; a .mat or .ptu is left to the reader."""
-        from spl_al.photon.formats.cube import names_a_bin_width
-
         path = Path(path)
         if (
             self.bin_width_ps is not None

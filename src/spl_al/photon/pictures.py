@@ -6,11 +6,13 @@ from pathlib import Path
 
 import numpy as np
 
+from spl_al.atomic import atomic_write
 from spl_al.photon.events import PhotonEvents
 from spl_al.photon.reconstruct import reconstruct
 from spl_al.photon.scene import Condition, PhotonScene
 from spl_al.photon.sensor import SensorParams
 from spl_al.photon.simulate import simulate_photons
+from spl_al.plotting import fit_texts
 
 DEMO_MSPPP = (10.0, 5.0, 2.0)
 DEMO_SBR = (5.0, 1.0, 0.2)
@@ -172,9 +174,6 @@ def render_real_capture(
 
 def _save(fig, path):
     import matplotlib.pyplot as plt
-
-    from spl_al.atomic import atomic_write
-    from spl_al.plotting import fit_texts
 
     fit_texts(fig)  # laid out again (tight) at every draw, the wrapped titles too
     fmt = Path(path).suffix.lstrip(".") or "png"

@@ -27,6 +27,7 @@ import numpy as np
 
 from spl_al.photon.events import PhotonEvents, Reconstruction
 from spl_al.photon.sensor import SensorParams
+from spl_al.photon.sspi import reconstruct_sspi
 
 ML_METHODS = ("pooled", "lmf")  # maximum likelihood: no weights needed
 METHODS = (*ML_METHODS, "sspi")
@@ -317,8 +318,6 @@ def reconstruct(
             "pass the sensor they were recorded with."
         )
     if method == "sspi":
-        from spl_al.photon.sspi import reconstruct_sspi
-
         return reconstruct_sspi(events, (rows, cols), sensor, weights=weights, device=device)
     n_pixels = rows * cols
     background_fraction = _background_fraction(events.bin, sensor.n_bins)

@@ -19,6 +19,7 @@ import numpy as np
 import pandas as pd
 
 from spl_al.report.display import METRIC_LABELS, format_ratio
+from spl_al.report.stats import rule_text
 
 _LATEX_SPECIALS = {
     "\\": r"\textbackslash{}",
@@ -140,8 +141,6 @@ def table_notes(frame: pd.DataFrame) -> list[str]:
     if "mark" not in frame.columns:
         notes.append(f"Best mean {per} in bold.")
     else:
-        from spl_al.report.stats import rule_text
-
         marks = frame["mark"].astype(object).fillna("")
         notes.append(
             f"n = {int(frame['n_expected'].iloc[0])} seeds per cell. Bold: the highest mean "

@@ -14,7 +14,7 @@ import warnings
 
 import numpy as np
 
-from spl_al.photon.events import PhotonEvents
+from spl_al.photon.events import PhotonEvents, Reconstruction
 from spl_al.photon.sensor import SensorParams
 
 TRAINED_BIN_WIDTH_S = (80e-12, 100e-12)  # simulations at 80 ps, real captures at 100 ps
@@ -67,9 +67,9 @@ def reconstruct_sspi(
     Returns:
         ``spl_al.photon.Reconstruction``, each field (rows, cols).
     """
+    # torch on demand (importing this module does not load it)
     import torch
 
-    from spl_al.photon.events import Reconstruction
     from spl_al.photon.sspi.weights import load_sspi
 
     rows, cols = (int(shape[0]), int(shape[1]))
