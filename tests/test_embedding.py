@@ -5,6 +5,7 @@ strategy contract (never a label of an unlabeled group)."""
 from __future__ import annotations
 
 import json
+from dataclasses import replace
 
 import numpy as np
 import pytest
@@ -12,6 +13,7 @@ from al_synthetic import shapes_groups
 
 from spl_al.data import Dataset
 from spl_al.experiment.embedding_steps import check_card, probe_runs, train_encoder
+from spl_al.experiment.step_args import ProbeRuns
 from spl_al.linear_probe import LinearProbe, probe_inputs
 from spl_al.report import load_records
 from spl_al.strategies import check_picks, get, names
@@ -136,16 +138,8 @@ def test_probe_runs_write_records_the_report_reads(tmp_path):
     out, _ = _encode(tmp_path, path, "enc")
     runs = tmp_path / "duis.json"
     method = {"strategy": "duis", "params": {"n_cand": 6}, "use_variants": True}
-    kwargs = dict(
-        dataset="toy",
-        method_name="duis",
-        method=method,
-        variants=VARIANTS,
-        al=AL,
-        seeds=[1, 2],
-        rounds=3,
-        out_path=runs,
-    )
+    spec = ProbeRuns("toy", "duis", method, VARIANTS, AL, seeds=(1, 2), rounds=3)
+    kwargs = dict(runs=spec, out_path=runs)
     records = probe_runs(path, out["embeddings"], out["card"], **kwargs)
     assert [(r["seed"], r["round"], r["n_labeled"]) for r in records] == [
         (s, r, 6 + 3 * r) for s in (1, 2) for r in range(3)
@@ -169,11 +163,18 @@ def test_probe_runs_write_records_the_report_reads(tmp_path):
     first = json.loads(runs.read_text())[0]
     assert sorted(first["pool_indices"]) == initial_labeled_set(N_TRAIN, 6, 1).tolist()
     with pytest.raises(ValueError, match="trained with dataset 'toy'"):
-        probe_runs(path, out["embeddings"], out["card"], **{**kwargs, "dataset": "other"})
+        probe_runs(
+            path,
+            out["embeddings"],
+            out["card"],
+            **{**kwargs, "runs": replace(spec, dataset="other")},
+        )
     # N_cand over half the unlabeled pool: the supervised query's sentence, naming the run
     big = {**method, "params": {"n_cand": 12}}
     with pytest.raises(ValueError, match=r"toy/duis seed 1.*makes round 1.*n_cand"):
-        probe_runs(path, out["embeddings"], out["card"], **{**kwargs, "method": big})
+        probe_runs(
+            path, out["embeddings"], out["card"], **{**kwargs, "runs": replace(spec, method=big)}
+        )
 
 
 def test_a_table_refuses_two_frameworks(tmp_path):

@@ -1,5 +1,6 @@
-"""Functions a reader can hold in mind: no function of src/spl_al takes more than six
-positional parameters (``self`` and ``cls`` aside; the rest are keyword-only), a
+"""Functions a reader can hold in mind: no function of src/spl_al takes more than ten
+parameters or more than six positional ones (``self`` and ``cls`` aside; the rest are
+keyword-only), a
 public one with more than four parameters at most four, and none runs over 60 lines
 of code (its docstring, blank lines and comments aside).
 
@@ -15,6 +16,7 @@ from pathlib import Path
 
 SRC = Path(__file__).resolve().parents[1] / "src" / "spl_al"
 MAX_POSITIONAL = 6
+MAX_PARAMETERS = 10
 MAX_CODE_LINES = 60
 
 # "module.py:function": why it keeps more than MAX_POSITIONAL positional parameters.
@@ -48,6 +50,21 @@ def test_no_function_takes_more_than_six_positional_parameters():
             if count > MAX_POSITIONAL and key not in EXCEPTIONS:
                 over.append(f"{key} ({count})")
     assert not over, f"make the parameters after the first few keyword-only: {over}"
+
+
+def test_no_function_takes_more_than_ten_parameters():
+    """More than ten is a record waiting to be named (``RoundId``, ``ProbeRuns``, ...)."""
+    over = []
+    for path in sorted(SRC.rglob("*.py")):
+        for node in ast.walk(ast.parse(path.read_text())):
+            if isinstance(node, (ast.FunctionDef, ast.AsyncFunctionDef)):
+                a = node.args
+                names = [x.arg for x in a.posonlyargs + a.args + a.kwonlyargs]
+                names += [x.arg for x in (a.vararg, a.kwarg) if x is not None]
+                count = sum(n not in ("self", "cls") for n in names)
+                if count > MAX_PARAMETERS:
+                    over.append(f"{path.relative_to(SRC)}:{node.name} ({count})")
+    assert not over, f"group related parameters into a small record: {over}"
 
 
 def code_lines(text: str):

@@ -1,3 +1,4 @@
+from spl_al.experiment.step_args import ProbeRuns
 from spl_al.warm.server import run_job
 
 run_job(
@@ -7,14 +8,16 @@ run_job(
         dataset_path=snakemake.input.data,
         embeddings_path=snakemake.input.embeddings,
         card_path=snakemake.input.card,
-        dataset=snakemake.wildcards.dataset,
-        method_name=snakemake.wildcards.method,
-        method=snakemake.params.method,
-        variants=snakemake.params.variants,
-        al=snakemake.params.al,
-        seeds=snakemake.params.seeds,
-        rounds=snakemake.params.rounds,
-        probe=snakemake.params.probe,
+        runs=ProbeRuns(
+            dataset=snakemake.wildcards.dataset,
+            method_name=snakemake.wildcards.method,
+            method=snakemake.params.method,
+            variants=snakemake.params.variants,
+            al=snakemake.params.al,
+            seeds=tuple(snakemake.params.seeds),
+            rounds=snakemake.params.rounds,
+            probe=snakemake.params.probe,
+        ),
         out_path=snakemake.output[0],
     ),
     preload=("spl_al.data", "spl_al.linear_probe", "spl_al.strategies"),

@@ -29,6 +29,7 @@ from spl_al.data import SCENE_FIELDS, Dataset
 from spl_al.data.dataset import LEVELS
 from spl_al.experiment.plan import MethodSpec, batch_of
 from spl_al.experiment.round_steps import QUERY_STREAM, step_seed
+from spl_al.experiment.step_args import ProbeRuns
 from spl_al.linear_probe import DEFAULT_C, LinearProbe, probe_inputs
 from spl_al.models.configured import save_model
 from spl_al.pool import Pool, initial_labeled_set
@@ -156,33 +157,24 @@ def probe_runs(
     embeddings_path,
     card_path,
     *,
-    dataset: str,
-    method_name: str,
-    method: dict,
-    variants: dict,
-    al: dict,
-    seeds,
-    rounds: int,
-    probe: dict | None = None,
+    runs: ProbeRuns,
     out_path,
     log=None,
 ) -> list[dict]:
-    """Every round of ``method_name``'s runs at ``seeds`` in the embedding framework.
+    """Every round of ``runs`` (one method, every seed) in the embedding framework.
 
-    ``method``: MethodSpec fields; ``variants``: the dataset's config ``variants`` (the
-    encoder's card must match it); ``al``: the dataset's ``al`` (initial, batch,
-    ratio_of, stratified_initial); ``rounds``: rounds per run (round 0 included);
-    ``probe``: config ``embedding.probe`` (``c``). Writes a JSON list of metrics
-    records (one per seed and round, as ``spl_al.report`` reads them, with
-    ``framework: embedding`` and each round's labeled set) to ``out_path``.
+    Writes a JSON list of metrics records (one per seed and round, as
+    ``spl_al.report`` reads them, with ``framework: embedding`` and each round's
+    labeled set) to ``out_path``.
     """
+    dataset, method_name, al = runs.dataset, runs.method_name, runs.al
     from threadpoolctl import threadpool_limits
 
     data = Dataset.load(dataset_path, skip=SCENE_FIELDS)
     check_card(
         read_json(card_path),
         dataset=dataset,
-        variants=variants,
+        variants=runs.variants,
         image_shape=data.depth_m.shape[1:],
         where=card_path,
     )
@@ -198,25 +190,25 @@ def probe_runs(
         n_total=len(data) if al.get("ratio_of", "train") == "all" else n_train,
         standin=bool(data.meta.get("synthetic_standin", False)),
     )
-    spec = MethodSpec(name=method_name, **{"params": {}, **method})
+    spec = MethodSpec(name=method_name, **{"params": {}, **runs.method})
     started = time.perf_counter()
     records = []
     # One BLAS/OpenMP thread, the job's one core: two -j2 jobs whose OpenMP threads
     # spin on the same two cores made a fit ~250x slower (7 s instead of 27 ms).
     with threadpool_limits(limits=1):
-        for seed in seeds:
+        for seed in runs.seeds:
             records += _run(
                 facts,
                 spec,
                 which=(dataset, int(seed)),
                 al=al,
-                rounds=int(rounds),
-                c=float((probe or {}).get("c", DEFAULT_C)),
+                rounds=int(runs.rounds),
+                c=float((runs.probe or {}).get("c", DEFAULT_C)),
                 n_variants=data.n_variants,
             )
     if log is not None:
         print(
-            f"{dataset}/{method_name}: {len(records)} rounds of {len(list(seeds))} seeds "
+            f"{dataset}/{method_name}: {len(records)} rounds of {len(runs.seeds)} seeds "
             f"in {time.perf_counter() - started:.1f} s",
             file=log,
         )

@@ -1,5 +1,6 @@
 """The small records a step takes (which round, its files, what its model starts
-from; where its models run is ``spl_al.training.compute.Compute``), importable
+from, the runs of an embedding-framework job; where its models run is
+``spl_al.training.compute.Compute``), importable
 without numpy or torch: the workflow's scripts build them in the job's own process
 before handing the step on."""
 
@@ -40,7 +41,23 @@ class ModelFiles:
     scores: str | Path | None = None
 
 
-"""Torch's own device choice ("auto") and thread count."""
+@dataclass(frozen=True)
+class ProbeRuns:
+    """The runs one embedding-framework job makes: every seed of one method.
+
+    ``method``: its ``MethodSpec`` fields; ``variants``, ``al``: the dataset's config
+    blocks (the encoder's card must match the former); ``rounds``: per run, round 0
+    included; ``probe``: the dataset's ``embedding.probe`` (``c``)."""
+
+    dataset: str
+    method_name: str
+    method: dict
+    variants: dict
+    al: dict
+    seeds: tuple[int, ...]
+    rounds: int
+    probe: dict | None = None
+
 
 FRESH = RoundStart()
 """Fresh weights on the dataset's labels (``train_round``'s default start)."""
