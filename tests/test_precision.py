@@ -128,3 +128,33 @@ def test_a_step_resolves_its_compute_once_into_a_device_and_a_concrete_precision
     assert Compute("cpu", precision="bf16").resolved().precision == "bf16"  # as asked
     with pytest.raises(ValueError, match="precision 'fp16' needs a CUDA device"):
         Compute("cpu", precision="fp16").resolved()
+
+
+def _conv_error(device: str) -> float:
+    """Largest relative error of an fp32 convolution on ``device`` against float64."""
+    gen = torch.Generator().manual_seed(0)
+    x = torch.randn(8, 64, 32, 32, generator=gen)
+    w = torch.randn(64, 64, 3, 3, generator=gen)
+    ref = torch.nn.functional.conv2d(x.double(), w.double(), padding=1)
+    out = torch.nn.functional.conv2d(x.to(device), w.to(device), padding=1).cpu().double()
+    return float(((out - ref).abs() / ref.abs().clamp_min(1.0)).max())
+
+
+def test_fp32_means_ieee_fp32_not_tf32_once_a_step_applies_its_compute():
+    torch.backends.cudnn.conv.fp32_precision = "tf32"  # cuDNN's own default
+    Compute("cpu", threads=None).apply()
+    assert torch.backends.cudnn.conv.fp32_precision == "ieee"
+    assert torch.backends.cuda.matmul.fp32_precision == "ieee"
+    assert _conv_error("cpu") < 1e-3
+
+
+@pytest.mark.skipif(not torch.cuda.is_available(), reason="needs a CUDA GPU")
+def test_an_fp32_convolution_on_cuda_is_ieee_fp32():
+    torch.backends.cudnn.conv.fp32_precision = "tf32"
+    tf32 = _conv_error("cuda")
+    Compute("cuda").apply()
+    # TF32 keeps 10 mantissa bits (~1e-2 on these 576-term sums); IEEE fp32 23 (~1e-5)
+    ieee = _conv_error("cuda")
+    assert ieee < 1e-3
+    if torch.cuda.get_device_capability()[0] >= 8:  # Ampere and later have TF32
+        assert tf32 > 1e-3

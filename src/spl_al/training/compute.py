@@ -26,9 +26,14 @@ class Compute:
     is_resolved: bool = field(default=False, compare=False, repr=False)
 
     def apply(self) -> None:
-        """Set torch's thread count (a step's first act; imports torch)."""
+        """Set torch's thread count and IEEE fp32 (no TF32 on CUDA: fp32 means fp32 on
+        every device, ``spl_al.training.device.ieee_fp32``); a step's first act,
+        imports torch."""
         import torch  # only when a step runs: job scripts import this module
 
+        from spl_al.training.device import ieee_fp32  # imports torch, as above
+
+        ieee_fp32()
         if self.threads:
             torch.set_num_threads(int(self.threads))
 

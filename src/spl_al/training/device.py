@@ -1,5 +1,5 @@
-"""Where torch runs a step (``resolve_device``) and deterministically
-(``deterministic_algorithms``)."""
+"""Where torch runs a step (``resolve_device``), deterministically
+(``deterministic_algorithms``) and in true fp32 (``ieee_fp32``)."""
 
 from __future__ import annotations
 
@@ -62,3 +62,14 @@ def deterministic_algorithms() -> Iterator[None]:
         _set_deterministic(previous[0], warn_only=previous[1])
         torch.backends.cudnn.deterministic = previous[2]
         torch.backends.cudnn.benchmark = previous[3]
+
+
+def ieee_fp32() -> None:
+    """fp32 matmuls and convolutions in IEEE fp32, never TF32, on every device.
+
+    cuDNN's convolutions default to TF32 on Ampere and later GPUs (10 mantissa bits),
+    so an "fp32" run there would be another numeric draw than the same run on a CPU.
+    bf16/fp16 autocast regions are unaffected: this governs fp32 operands alone.
+    """
+    torch.backends.cuda.matmul.fp32_precision = "ieee"
+    torch.backends.cudnn.conv.fp32_precision = "ieee"
