@@ -146,3 +146,33 @@ def test_common_smk_holds_only_what_rule_files_share():
         defines = re.search(r"^def ", text, re.MULTILINE)
         has_rules = re.search(r"^(rule|use rule) ", text, re.MULTILINE)
         assert not (defines and has_rules), f"{path.name} mixes rules and functions"
+
+
+def _merged(base: dict, over: dict) -> dict:
+    out = dict(base)
+    for key, value in over.items():
+        out[key] = _merged(out.get(key) or {}, value) if isinstance(value, dict) else value
+    return out
+
+
+def test_a_dataset_in_the_embedding_framework_alone_plans_no_supervised_report(tmp_path):
+    """A lab that wants the fast framework alone (`experiments: {}`) gets its encoders,
+    runs and reports, and no supervised summary that would find no metrics."""
+    default = yaml.safe_load((ROOT / "config" / "config.yaml").read_text())
+    ci = yaml.safe_load((ROOT / "config" / "ci.yaml").read_text())
+    entry = _merged(default["datasets"]["real_cls"], ci["datasets"]["real_cls"])
+    entry["experiments"] = {}
+    override = tmp_path / "lab.yaml"
+    override.write_text(
+        yaml.safe_dump({"only_datasets": ["lab_cls"], "datasets": {"lab_cls": entry}})
+    )
+    args = ("--configfile", str(ROOT / "config" / "ci.yaml"), str(override))
+    run = snakemake("-n", "--cores", "1", *args, "--config", f"results={tmp_path / 'r'}")
+    assert run.returncode == 0, run.stderr[-3000:]
+    jobs = {
+        line.split()[0]
+        for line in run.stdout.splitlines()
+        if line.strip() and line.split()[-1].isdigit()
+    }
+    assert {"encoder", "probe_runs", "embedding_stats", "embedding_summary"} <= jobs
+    assert not jobs & {"summary", "train", "train_initial", "stats", "table"}
