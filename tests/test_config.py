@@ -366,20 +366,31 @@ def test_the_plan_names_source_shape_methods_seeds_rounds_and_budgets():
     assert "synthesis.image_shape=[64, 64]" in plan_text(config, inherited)
 
 
-def test_the_default_run_decides_in_the_embedding_framework_at_100_seeds():
+def test_the_default_run_s_embedding_framework_has_12_encoders_of_10_seeds():
+    from spl_al.experiment.encoders import encoder_of, encoder_seeds
     from spl_al.experiment.overview import plan_text
     from spl_al.experiment.plan import budget_families, dataset_runs
 
     config = _merged()
     for dataset in ("real_cls", "synth_cls"):
         runs = dataset_runs(config, dataset, "embedding")
-        assert {seed for _m, seed in runs} == set(range(1, 101))
+        assert {seed for _m, seed in runs} == set(range(1, 121))
+        entry = config["datasets"][dataset]
+        # 2/2^K <= 0.05/27: the sign-flip test over K encoders can pass Holm over the
+        # largest claim's 27 comparisons (3 query rounds x 9 matched baselines)
+        k = len(encoder_seeds(entry))
+        assert k >= 12 and 2 / 2**k <= 0.05 / 27
+        per = {
+            e: sum(encoder_of(entry, s) == e for s in range(1, 121)) for e in encoder_seeds(entry)
+        }
+        assert set(per.values()) == {10}
         families = budget_families(config, dataset, framework="embedding")
         for low in ("typiclust", "probcover", "maxherding"):
             assert low in families["paper"] and f"syn_{low}" in families["matched"]
         # the supervised framework keeps its 3 seeds
         assert {seed for _m, seed in dataset_runs(config, dataset)} == {1, 2, 3}
-    assert "embedding framework" in plan_text(config) and "seeds 1-100 (100)" in plan_text(config)
+    text = plan_text(config)
+    assert "12 self-supervised encoders" in text and "seeds 1-120 (120)" in text
 
 
 @pytest.mark.parametrize(

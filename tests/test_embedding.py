@@ -4,6 +4,7 @@ strategy contract (never a label of an unlabeled group)."""
 
 from __future__ import annotations
 
+import itertools
 import json
 from dataclasses import replace
 
@@ -14,12 +15,19 @@ from al_synthetic import shapes_groups
 from spl_al.data import Dataset
 from spl_al.experiment.embedding_steps import check_card, probe_runs, train_encoder
 from spl_al.experiment.step_args import ProbeRuns
-from spl_al.linear_probe import LinearProbe, probe_inputs
 from spl_al.report import load_records
-from spl_al.strategies import check_picks, get, names
+from spl_al.strategies import names
 from spl_al.training.contrastive import EncoderConfig, nt_xent
 
-ENCODER = {"width": 4, "steps": 6, "batch_size": 8, "projection_dim": 8, "input_pool": 1}
+# enough steps for a healthy encoder (its loss well below chance: the health check)
+ENCODER = {
+    "width": 4,
+    "steps": 40,
+    "batch_size": 8,
+    "projection_dim": 8,
+    "input_pool": 1,
+    "lr": 0.1,
+}
 VARIANTS = {"n": 2, "shards": 1, "seed": 0}
 AL = {"initial": 6, "batch": 3, "ratio_of": "train"}
 N_TRAIN = 24
@@ -49,10 +57,15 @@ def _dataset(tmp_path, labels=None, test_depth=None, name="dataset.npz"):
     return path, data
 
 
-def _encode(tmp_path, data_path, stem):
+def _encode(tmp_path, data_path, stem, encoder=ENCODER):
     out = {k: tmp_path / f"{stem}.{k}" for k in ("encoder", "card", "embeddings")}
-    card = train_encoder(data_path, dataset="toy", encoder=ENCODER, variants=VARIANTS, out=out)
+    card = train_encoder(data_path, dataset="toy", encoder=encoder, variants=VARIANTS, out=out)
     return out, card
+
+
+def _files(out, seed=0):
+    """``probe_runs``'s encoder files: one encoder of seed ``seed``."""
+    return {seed: {"embeddings": out["embeddings"], "card": out["card"]}}
 
 
 def test_encoder_reads_no_label_and_no_test_image(tmp_path):
@@ -104,33 +117,89 @@ def test_encoder_config_names_unknown_keys():
         EncoderConfig.from_dict({"widht": 3})
 
 
-@pytest.mark.parametrize("strategy", sorted(set(names()) - {"skactiveml"}))
-def test_embedding_round_keeps_the_strategy_contract(strategy):
-    """Picks are distinct unlabeled groups, seeded, and the same whatever the hidden
-    labels of the unlabeled groups (the probe reads the labeled groups' alone)."""
-    rng = np.random.default_rng(0)
-    emb = rng.normal(size=(60, 3, 8)).astype(np.float32)
-    labels = rng.integers(0, 4, 60)
-    labeled = np.arange(0, 60, 6)
-    unlabeled = np.setdiff1d(np.arange(60), labeled)
+def _facts(rng, labels):
+    from spl_al.experiment.embedding_steps import ProbeData
+
+    return ProbeData(
+        train=rng.normal(size=(60, 3, 8)).astype(np.float32),
+        test=rng.normal(size=(20, 8)).astype(np.float32),
+        train_labels=labels,
+        test_labels=rng.integers(0, 4, 20),
+        test_levels=np.array(["high"] * 20),
+        n_classes=4,
+        n_total=60,
+        standin=True,
+    )
+
+
+def _labeled_sets(facts, strategy):
+    """Every round's labeled set of one embedding-framework run (3 queries of 5)."""
+    from spl_al.experiment.embedding_steps import _run
+    from spl_al.experiment.plan import MethodSpec
+
     params = {"n_classes": 4} if strategy == "probcover" else {}
     if strategy in ("duis", "diversity"):
         params["n_cand"] = 12
-    s = get(strategy, **params)
+    spec = MethodSpec(name=strategy, strategy=strategy, params=params, use_variants=True)
+    al = {"initial": 10, "batch": 5}
+    records = _run(facts, spec, which=("toy", 1), al=al, rounds=4, c=1.0, n_variants=2)
+    return [r["pool_indices"] for r in records]
 
-    def picks(hidden):
-        probe = LinearProbe(4).fit(emb[labeled, 0], hidden[labeled])
-        inputs = probe_inputs(
-            probe, emb, s.needs, unlabeled_idx=unlabeled, labeled_idx=labeled, n_images=3
-        )
-        return check_picks(strategy, s.select(inputs, 5, np.random.default_rng(1)), inputs, 5)
 
-    first = picks(labels)
+def _assert_hidden_labels_unread(strategy):
+    """A run's labeled sets are the same whatever the labels of the groups it never
+    labels: the strategy saw none of them."""
+    rng = np.random.default_rng(0)
+    labels = rng.integers(0, 4, 60)
+    facts = _facts(np.random.default_rng(1), labels)
+    first = _labeled_sets(facts, strategy)
+    never = np.setdiff1d(np.arange(60), first[-1])
     other = labels.copy()
-    other[unlabeled] = rng.permutation(other[unlabeled])
-    np.testing.assert_array_equal(first, picks(other))
-    np.testing.assert_array_equal(first, picks(labels))
-    assert not np.isin(first, labeled).any() and len(set(first.tolist())) == 5
+    other[never] = (labels[never] + 1 + rng.integers(0, 3, never.size)) % 4  # every one changes
+    assert _labeled_sets(replace(facts, train_labels=other), strategy) == first
+    assert _labeled_sets(facts, strategy) == first  # seeded
+    for before, after in itertools.pairwise(first):
+        added = sorted(set(after) - set(before))
+        assert len(added) == 5 and set(before) <= set(after)  # no repeat, none relabeled
+
+
+@pytest.mark.parametrize("strategy", sorted(set(names()) - {"skactiveml"}))
+def test_embedding_round_keeps_the_strategy_contract(strategy):
+    """Picks are distinct unlabeled groups, seeded, and the same whatever the hidden
+    labels of the groups the run never labels (the oracle's labels reach the probe for
+    labeled groups alone)."""
+    _assert_hidden_labels_unread(strategy)
+
+
+def test_the_contract_test_catches_a_round_that_leaks_hidden_labels(monkeypatch):
+    """The test above fails on a round that hands the strategy features made from the
+    labels of unlabeled groups (the oracle's, which it must never read)."""
+    from spl_al.experiment import embedding_steps
+
+    real = embedding_steps.probe_inputs
+    leaked = {}
+
+    def leaking(probe, embeddings, needs, **kw):
+        inputs = real(probe, embeddings, needs, **kw)
+        hidden = leaked["labels"][inputs.unlabeled_idx]
+        for name in ("features", "group_features"):
+            if getattr(inputs, name) is not None:
+                setattr(inputs, name, (getattr(inputs, name) + 10.0 * hidden[:, None]))
+        if inputs.margin is not None:
+            inputs.margin = inputs.margin + hidden
+        return inputs
+
+    real_run = embedding_steps._run
+
+    def run(facts, *args, **kw):
+        leaked["labels"] = facts.train_labels
+        return real_run(facts, *args, **kw)
+
+    monkeypatch.setattr(embedding_steps, "probe_inputs", leaking)
+    monkeypatch.setattr(embedding_steps, "_run", run)
+    for strategy in ("margin", "coreset"):
+        with pytest.raises(AssertionError):
+            _assert_hidden_labels_unread(strategy)
 
 
 def test_probe_runs_write_records_the_report_reads(tmp_path):
@@ -138,15 +207,15 @@ def test_probe_runs_write_records_the_report_reads(tmp_path):
     out, _ = _encode(tmp_path, path, "enc")
     runs = tmp_path / "duis.json"
     method = {"strategy": "duis", "params": {"n_cand": 6}, "use_variants": True}
-    spec = ProbeRuns("toy", "duis", method, VARIANTS, AL, seeds=(1, 2), rounds=3)
+    spec = ProbeRuns("toy", "duis", method, VARIANTS, AL, seeds=(1, 2), rounds=3, encoders=(0, 0))
     kwargs = dict(runs=spec, out_path=runs)
-    records = probe_runs(path, out["embeddings"], out["card"], **kwargs)
+    records = probe_runs(path, _files(out), **kwargs)
     assert [(r["seed"], r["round"], r["n_labeled"]) for r in records] == [
         (s, r, 6 + 3 * r) for s in (1, 2) for r in range(3)
     ]
     assert records[0]["train_images"] == 6 * 3  # observed + both variants
     again = tmp_path / "again.json"
-    probe_runs(path, out["embeddings"], out["card"], **{**kwargs, "out_path": again})
+    probe_runs(path, _files(out), **{**kwargs, "out_path": again})
 
     def timeless(path):
         return [
@@ -163,18 +232,11 @@ def test_probe_runs_write_records_the_report_reads(tmp_path):
     first = json.loads(runs.read_text())[0]
     assert sorted(first["pool_indices"]) == initial_labeled_set(N_TRAIN, 6, 1).tolist()
     with pytest.raises(ValueError, match="trained with dataset 'toy'"):
-        probe_runs(
-            path,
-            out["embeddings"],
-            out["card"],
-            **{**kwargs, "runs": replace(spec, dataset="other")},
-        )
+        probe_runs(path, _files(out), **{**kwargs, "runs": replace(spec, dataset="other")})
     # N_cand over half the unlabeled pool: the supervised query's sentence, naming the run
     big = {**method, "params": {"n_cand": 12}}
     with pytest.raises(ValueError, match=r"toy/duis seed 1.*makes round 1.*n_cand"):
-        probe_runs(
-            path, out["embeddings"], out["card"], **{**kwargs, "runs": replace(spec, method=big)}
-        )
+        probe_runs(path, _files(out), **{**kwargs, "runs": replace(spec, method=big)})
 
 
 def test_a_table_refuses_two_frameworks(tmp_path):
@@ -221,3 +283,91 @@ def test_dense_embeddings_give_every_pixel_each_stage_of_the_encoder(tmp_path):
     h, w = data.depth_m.shape[1:]
     assert dense.shape == (5, h, w, 4 + 8 + 16 + 32)  # width 4, four stages
     assert np.isfinite(dense).all()
+
+
+def test_an_encoder_card_records_where_it_trained_and_its_health(tmp_path):
+    path, _ = _dataset(tmp_path)
+    out, card = _encode(tmp_path, path, "a")
+    import hashlib
+
+    assert card["weights_sha256"] == hashlib.sha256(out["encoder"].read_bytes()).hexdigest()
+    trained = card["trained_with"]
+    assert trained["precision"] == "fp32" and trained["device"] and trained["threads"] >= 1
+    assert trained["torch"].split(".")[0].isdigit()
+    health = card["health"]
+    assert set(health) == {"loss_ratio", "effective_rank", "verdict", "failed"}
+    assert health["loss_ratio"] == pytest.approx(card["final_loss"] / card["chance_loss"], 1e-3)
+
+
+def test_a_collapsed_encoder_is_refused_naming_its_dataset_seed_and_figure(tmp_path):
+    path, _ = _dataset(tmp_path)
+    # one step at a vanishing learning rate: the loss stays at chance
+    collapsed = {**ENCODER, "steps": 1, "lr": 1e-9, "seed": 7}
+    out = {k: tmp_path / f"c.{k}" for k in ("encoder", "card", "embeddings")}
+    with pytest.raises(ValueError, match=r"toy: the encoder of seed 7 collapsed: final loss") as e:
+        train_encoder(path, dataset="toy", encoder=collapsed, variants=VARIANTS, out=out)
+    assert str(e.value).count(". ") == 0
+    assert not any(p.exists() for p in out.values())  # nothing written
+
+
+def test_encoder_health_flags_a_near_collapse_and_a_rank_collapse():
+    from spl_al.training.contrastive import chance_loss, effective_rank, encoder_health
+
+    rng = np.random.default_rng(0)
+    spread = rng.normal(size=(200, 32))
+    assert chance_loss(128) == pytest.approx(np.log(255))
+    # the issue's case: NT-Xent 4.30 at 128 frames a batch, chance 5.54
+    doubtful = encoder_health({"final_loss": 4.30, "chance_loss": chance_loss(128)}, spread)
+    assert (
+        doubtful["verdict"] == "doubtful" and "final loss 0.78 of chance" in doubtful["failed"][0]
+    )
+    line = np.outer(rng.normal(size=200), rng.normal(size=32))  # every sample on one line
+    assert effective_rank(line) == pytest.approx(1.0, abs=1e-6)
+    flat = encoder_health({"final_loss": 1.0, "chance_loss": 5.0}, line)
+    assert flat["verdict"] == "collapsed" and "effective rank 1.0" in flat["failed"][0]
+    good = encoder_health({"final_loss": 2.0, "chance_loss": 5.54}, spread)
+    assert good["verdict"] == "healthy" and good["failed"] == []
+
+
+def test_generic_views_keep_voids_and_differ_from_the_siv_pair():
+    import torch
+
+    from spl_al.training.contrastive import _generic_views
+
+    x = torch.zeros(4, 3, 2, 16, 16)
+    x[:, :, 1, 4:12, 4:12] = 1.0  # valid square
+    x[:, :, 0] = x[:, :, 1] * 0.5
+    gen = torch.Generator().manual_seed(0)
+    cfg = EncoderConfig(objective="generic", pixel_dropout=0.2)
+    v = _generic_views(x, torch.arange(4), gen, cfg)
+    assert v.shape == (8, 2, 16, 16)
+    assert set(v[:, 1].unique().tolist()) <= {0.0, 1.0}
+    assert torch.all(v[:, 0][v[:, 1] == 0] == 0)  # a void has no depth
+    assert not torch.equal(v[:4], v[4:])  # two different augmentations of each frame
+    with pytest.raises(ValueError, match="objective must be one of"):
+        EncoderConfig.from_dict({"objective": "simclr"})
+
+
+def test_run_seeds_read_their_block_s_encoder(tmp_path):
+    path, _ = _dataset(tmp_path)
+    a, _ = _encode(tmp_path, path, "e3", {**ENCODER, "seed": 3})
+    b, _ = _encode(tmp_path, path, "e5", {**ENCODER, "seed": 5})
+    files = {**_files(a, 3), **_files(b, 5)}
+    method = {"strategy": "random", "params": {}, "use_variants": False}
+    spec = ProbeRuns(
+        "toy", "random", method, VARIANTS, AL, seeds=(1, 2, 3), rounds=2, encoders=(3, 3, 5)
+    )
+    records = probe_runs(path, files, runs=spec, out_path=tmp_path / "r.json")
+    assert [(r["seed"], r["encoder"]) for r in records if r["round"] == 0] == [
+        (1, 3),
+        (2, 3),
+        (3, 5),
+    ]
+    df = load_records([tmp_path / "r.json"])
+    assert sorted(df["encoder"].unique()) == [3, 5]
+    # a block whose encoder's card is another seed's: refused, naming both
+    swapped = {3: files[5], 5: files[3]}
+    with pytest.raises(
+        ValueError, match="trained with seed 5, but these run seeds read encoder seed 3"
+    ):
+        probe_runs(path, swapped, runs=spec, out_path=tmp_path / "s.json")

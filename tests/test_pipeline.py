@@ -369,16 +369,23 @@ CHANGES = {
     "the embedding framework's seeds": (
         "datasets: {real_cls: {embedding: {experiments: {budget: {seeds: [1, 2, 4]}}}}}",
         ["real_cls/embedding/runs/random.json", "real_cls/embedding/tables/budget.csv"],
-        ["*/data/*", "*/initial/*", "real_cls/embedding/encoder.pt", "real_cls/random/*"],
+        ["*/data/*", "*/initial/*", "real_cls/embedding/encoders/*", "real_cls/random/*"],
     ),
     "the encoder's recipe": (
-        "datasets: {real_cls: {embedding: {encoder: {steps: 9}}}}",
+        "datasets: {real_cls: {embedding: {encoder: {steps: 32}}}}",
         [
-            "real_cls/embedding/encoder.pt",
+            "real_cls/embedding/encoders/seed0/encoder.pt",
+            "real_cls/embedding/encoders/seed1/encoder.pt",
             "real_cls/embedding/runs/duis.json",
             "real_cls/typiclust_ssl/seed1/round0/scores.npz",  # it selects on them
         ],
         ["*/data/*", "*/initial/*", "real_cls/random/*", "real_cls/duis/*", "street_*"],
+    ),
+    "an encoder seed": (
+        "datasets: {real_cls: {embedding: {encoder: {seeds: [0, 2]}}}}",
+        ["real_cls/embedding/encoders/seed2/encoder.pt", "real_cls/embedding/runs/duis.json"],
+        # run seeds 1-2 and the supervised runs that select on it read encoder 0 still
+        ["real_cls/embedding/encoders/seed0/*", "*/data/*", "real_cls/typiclust_ssl/*"],
     ),
 }
 
@@ -572,8 +579,9 @@ def test_embedding_framework_runs_on_the_same_round0_sets(ci_results):
     own round-0 sets, and a supervised method with features: embedding selecting on
     the same embeddings."""
     root = ci_results / "real_cls" / "embedding"
-    card = json.loads((root / "encoder.card.json").read_text())
+    card = json.loads((root / "encoders" / "seed0" / "card.json").read_text())
     assert card["dataset"] == "real_cls" and card["precision"] == "fp32"
+    assert card["encoder"]["seed"] == 0 and card["health"]["verdict"] in ("healthy", "doubtful")
     for name in ("budget", "levels", "ablation", "sensitivity"):
         caption = (root / "tables" / f"{name}.md").read_text().splitlines()[0]
         assert "embedding framework" in caption
@@ -583,10 +591,12 @@ def test_embedding_framework_runs_on_the_same_round0_sets(ci_results):
     assert json.loads((root / "tables" / "summary.json").read_text())["framework"] == "embedding"
     runs = json.loads((root / "runs" / "duis.json").read_text())
     assert sorted({r["seed"] for r in runs}) == [1, 2, 3]
+    # block 2: run seeds 1-2 read encoder seed 0, run seed 3 encoder seed 1
+    assert {(r["seed"], r["encoder"]) for r in runs} == {(1, 0), (2, 0), (3, 1)}
     for record in (r for r in runs if r["round"] == 0 and r["seed"] in (1, 2)):
         initial = ci_results / "real_cls" / "initial" / f"seed{record['seed']}.json"
         assert sorted(record["pool_indices"]) == json.loads(initial.read_text())["pool_indices"]
-    with np.load(root / "embeddings.npz") as f:
+    with np.load(root / "encoders" / "seed0" / "embeddings.npz") as f:
         train = f["train"]
     scores = np.load(ci_results / "real_cls" / "typiclust_ssl" / "seed1" / "round0" / "scores.npz")
     np.testing.assert_array_equal(scores["features"], train[scores["unlabeled_idx"], 0])

@@ -567,3 +567,52 @@ def test_sign_flip_ps_equal_one_at_a_time():
     ds = [rng.normal(0.2, 1.0, 60), rng.normal(0.0, 1.0, 60), rng.normal(0.5, 1.0, 8)]
     ds.append(np.zeros(60))
     assert sign_flip_ps(ds) == [sign_flip_p(d) for d in ds]
+
+
+def test_with_encoders_the_units_are_the_encoders_means_by_hand():
+    """4 encoders x 3 run seeds: the test, interval and p are those of the 4 encoder
+    means of the paired differences, computed here by hand."""
+    import itertools
+
+    from scipy.stats import t as student_t
+
+    from spl_al.report.stats import leader_test, pairwise
+
+    d_by_encoder = {
+        7: [0.02, 0.04, 0.03],
+        8: [0.01, 0.00, 0.02],
+        9: [0.05, 0.03, 0.04],
+        11: [-0.01, 0.02, 0.02],
+    }
+    rows = []
+    seed = 0
+    for enc, ds in d_by_encoder.items():
+        for d in ds:
+            seed += 1
+            base = 0.5 + 0.01 * seed
+            rows += [
+                {"method": "b", "seed": seed, "value": base, "encoder": enc},
+                {"method": "a", "seed": seed, "value": base + d, "encoder": enc},
+            ]
+    values = pd.DataFrame(rows)
+    out = pairwise(values, ["b", "a"]).iloc[0]
+    means = np.array([np.mean(v) for v in d_by_encoder.values()])
+    half = student_t.ppf(0.975, 3) * means.std(ddof=1) / 2
+    assert out["unit"] == "encoder" and out["n"] == 4 and out["n_seeds"] == 12
+    assert out["diff"] == pytest.approx(means.mean())
+    assert (out["ci_low"], out["ci_high"]) == pytest.approx(
+        (means.mean() - half, means.mean() + half)
+    )
+    flips = [
+        abs(np.dot(s, means)) >= abs(means.sum()) - 1e-12
+        for s in itertools.product([-1, 1], repeat=4)
+    ]
+    assert out["p_value"] == pytest.approx(np.mean(flips))  # 2/16: every encoder agrees
+    assert out["var_between"] == pytest.approx(means.var(ddof=1))
+    within = np.mean([np.var(v, ddof=1) for v in d_by_encoder.values()])
+    assert out["var_within"] == pytest.approx(within)
+    assert not out["resolved"]  # every encoder agrees (p = 2/16), but the interval holds 0
+    # without the encoder column the 12 seeds are the units
+    seeds = pairwise(values.drop(columns="encoder"), ["b", "a"]).iloc[0]
+    assert seeds["unit"] == "seed" and seeds["n"] == 12 and np.isnan(seeds["var_between"])
+    assert leader_test(values)["n"] == 4

@@ -1,7 +1,8 @@
-# The embedding framework (config `datasets.{d}.embedding`): a self-supervised encoder
-# learned once per dataset on its training pool (no label, no test image), then every
-# method's runs, all seeds and rounds in one job each, on its frozen embeddings: each
-# round fits a linear classifier and queries from it (spl_al.experiment.embedding_steps).
+# The embedding framework (config `datasets.{d}.embedding`): self-supervised encoders
+# learned on each dataset's training pool (no label, no test image), one job per
+# encoder seed, then every method's runs, all seeds and rounds in one job each, on
+# the frozen embeddings of each run seed's encoder: each round fits a linear classifier
+# and queries from it (spl_al.experiment.embedding_steps, spl_al.experiment.encoders).
 # Its tables, figures and statistics are the supervised framework's, under
 # results/{dataset}/embedding/.
 
@@ -10,15 +11,16 @@ rule encoder:
     input:
         data=f"{RESULTS}/{{dataset}}/data/dataset.npz",
     output:
-        encoder=f"{EMBEDDING}/encoder.pt",
-        card=f"{EMBEDDING}/encoder.card.json",
-        embeddings=f"{EMBEDDING}/embeddings.npz",
+        encoder=f"{EMBEDDING}/encoders/seed{{eseed}}/encoder.pt",
+        card=f"{EMBEDDING}/encoders/seed{{eseed}}/card.json",
+        embeddings=f"{EMBEDDING}/encoders/seed{{eseed}}/embeddings.npz",
     log:
-        f"{RESULTS}/logs/{{dataset}}/embedding/encoder.log",
+        f"{RESULTS}/logs/{{dataset}}/embedding/encoder_seed{{eseed}}.log",
     benchmark:
-        f"{RESULTS}/benchmarks/{{dataset}}/embedding/encoder.tsv"
+        f"{RESULTS}/benchmarks/{{dataset}}/embedding/encoder_seed{{eseed}}.tsv"
     wildcard_constraints:
         dataset=one_of(EMBEDDED),
+        eseed=r"\d+",
     conda:
         "../envs/spl-al.yaml"
     threads: config["threads_per_job"]
@@ -28,7 +30,10 @@ rule encoder:
         gpu=config["gpus_per_train_job"],
     params:
         job=job_params(
-            encoder=lambda w: embedding_entry(w.dataset).get("encoder") or {},
+            encoder=lambda w: {
+                **encoder_recipe(config["datasets"][w.dataset]),
+                "seed": int(w.eseed),
+            },
             variants=lambda w: config["datasets"][w.dataset]["variants"],
             device=config["device"],
         ),
@@ -39,9 +44,8 @@ rule encoder:
 
 rule probe_runs:
     input:
+        unpack(probe_runs_encoders),
         data=f"{RESULTS}/{{dataset}}/data/dataset.npz",
-        embeddings=f"{EMBEDDING}/embeddings.npz",
-        card=f"{EMBEDDING}/encoder.card.json",
     output:
         f"{EMBEDDING}/runs/{{method}}.json",
     log:
@@ -65,6 +69,7 @@ rule probe_runs:
             al=lambda w: config["datasets"][w.dataset]["al"],
             probe=lambda w: embedding_entry(w.dataset).get("probe") or {},
             seeds=lambda w: probe_run_params(w)["seeds"],
+            encoders=lambda w: [run_encoders(w)[s] for s in probe_run_params(w)["seeds"]],
             rounds=lambda w: probe_run_params(w)["rounds"],
         ),
         files=job_files,
@@ -229,6 +234,9 @@ use rule stats as embedding_stats with:
             ),
             sweeps=lambda w: sweep_table_spec(
                 config, config["datasets"][w.dataset]["variants"]["n"]
+            ),
+            claim_notes=lambda w: encoder_claim_notes(
+                encoder_recipe(config["datasets"][w.dataset]).get("objective", "siv")
             ),
         ),
         files=job_files,

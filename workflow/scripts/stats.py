@@ -8,6 +8,7 @@ run_job(
         experiments=snakemake.params.experiments,
         sweeps=snakemake.params.sweeps,
         out=dict(snakemake.output.items()),
+        claim_notes=getattr(snakemake.params, "claim_notes", None),
     ),
     preload=("matplotlib.pyplot", "spl_al.report"),
 )

@@ -267,13 +267,15 @@ def probe_round_seconds(*, n_pool: int, n_test: int, m: int, dim: int, n_labeled
 
 
 def embedding_seconds(config: dict, dataset: str, *, steps: int = 5) -> dict:
-    """Core seconds of a dataset's embedding framework (none without one): the encoder
-    (``steps`` timed steps of its recipe, scaled to its steps, plus embedding every
-    image) and the probe runs (a few timed rounds of DUIS and Random on random
-    embeddings of the pool's size, times the rounds planned), and its job count."""
+    """Core seconds of a dataset's embedding framework (none without one): its encoders
+    (``steps`` timed steps of the recipe, scaled to its steps, plus embedding every
+    image, times the encoders planned) and the probe runs (a few timed rounds of DUIS
+    and Random on random embeddings of the pool's size, times the rounds planned), and
+    its job count."""
     # torch and pandas on demand (importing this module does not load them)
     import torch
 
+    from spl_al.experiment.encoders import encoder_recipe, encoder_seeds
     from spl_al.experiment.plan import dataset_runs, labeled_at
     from spl_al.training.contrastive import Encoder, EncoderConfig, nt_xent
     from spl_al.training.sgd import SGD
@@ -282,15 +284,19 @@ def embedding_seconds(config: dict, dataset: str, *, steps: int = 5) -> dict:
     embedding = entry.get("embedding")
     if not embedding:
         return {"encoder_s": 0.0, "probe_s": 0.0, "jobs": 0}
-    cfg = EncoderConfig.from_dict(embedding.get("encoder"))
+    cfg = EncoderConfig.from_dict(encoder_recipe(entry))
+    n_encoders = len(encoder_seeds(entry))
     n_pool, n_test, _ = split_sizes(entry)
     m = int(entry["variants"]["n"])
     shape = tuple((entry.get("synthesis") or {}).get("image_shape") or (64, 64))
     torch.manual_seed(0)
-    encoder = Encoder(cfg)
+    # as train_encoder runs it: channels-last
+    encoder = Encoder(cfg).to(memory_format=torch.channels_last)
     batch = min(cfg.batch_size, n_pool)
-    x = torch.randn(2 * batch, 2, *shape)
+    x = torch.randn(2 * batch, 2, *shape).contiguous(memory_format=torch.channels_last)
     opt = SGD(encoder.parameters(), lr=0.01)
+    loss = nt_xent(encoder.project(encoder(x)), cfg.temperature)  # warm-up, untimed
+    loss.backward()
     started = time.perf_counter()
     for _ in range(steps):
         loss = nt_xent(encoder.project(encoder(x)), cfg.temperature)
@@ -302,7 +308,7 @@ def embedding_seconds(config: dict, dataset: str, *, steps: int = 5) -> dict:
         started = time.perf_counter()
         encoder(x)
         image_s = (time.perf_counter() - started) / len(x)
-    encoder_s = cfg.steps * step_s + (n_pool * (1 + m) + n_test) * image_s
+    encoder_s = n_encoders * (cfg.steps * step_s + (n_pool * (1 + m) + n_test) * image_s)
     runs = dataset_runs(config, dataset, "embedding")
     rounds = sum(runs.values())
     round_s = probe_round_seconds(
@@ -317,7 +323,7 @@ def embedding_seconds(config: dict, dataset: str, *, steps: int = 5) -> dict:
     return {
         "encoder_s": encoder_s,
         "probe_s": rounds * round_s + report_s,
-        "jobs": 1 + len(methods) + REPORT_JOBS,
+        "jobs": n_encoders + len(methods) + REPORT_JOBS,
     }
 
 

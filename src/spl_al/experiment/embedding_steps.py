@@ -27,6 +27,7 @@ from spl_al import __version__
 from spl_al.atomic import atomic_write, read_json, write_json
 from spl_al.data import SCENE_FIELDS, Dataset
 from spl_al.data.dataset import LEVELS
+from spl_al.deploy.card import file_sha256
 from spl_al.experiment.plan import MethodSpec, batch_of
 from spl_al.experiment.round_steps import QUERY_STREAM, step_seed
 from spl_al.experiment.step_args import ProbeRuns
@@ -36,7 +37,7 @@ from spl_al.pool import Pool, initial_labeled_set
 from spl_al.strategies import check_picks, get
 from spl_al.strategies.duis import check_candidate_pool
 from spl_al.training.compute import LOCAL, Compute
-from spl_al.training.contrastive import EncoderConfig, embed
+from spl_al.training.contrastive import EncoderConfig, embed, encoder_health
 from spl_al.training.contrastive import train_encoder as fit_encoder
 
 FRAMEWORK = "embedding"
@@ -58,14 +59,24 @@ def encoder_card(*, dataset: str, variants: dict, image_shape, encoder: dict, re
     }
 
 
-def check_card(card: dict, *, dataset: str, variants: dict, image_shape, where) -> None:
+def check_card(
+    card: dict, *, dataset: str, variants: dict, image_shape, where, encoder_seed=None
+) -> None:
     """A ValueError, one sentence naming what differs, unless the encoder's ``card`` was
-    trained on ``dataset`` with these ``variants`` settings and ``image_shape``."""
+    trained on ``dataset`` with these ``variants`` settings and ``image_shape`` (and,
+    given ``encoder_seed``, with that seed)."""
     expected = {
         "dataset": dataset,
         "variants": dict(variants),
         "image_shape": [int(s) for s in image_shape],
     }
+    if encoder_seed is not None:
+        got = (card.get("encoder") or {}).get("seed")
+        if got != int(encoder_seed):
+            raise ValueError(
+                f"{where}: the encoder was trained with seed {got!r}, but these run seeds read "
+                f"encoder seed {int(encoder_seed)}; train it again (remove it and rerun)."
+            )
     for key in CARD_KEYS:
         if card.get(key) != expected[key]:
             raise ValueError(
@@ -104,7 +115,21 @@ def train_encoder(
     test_depth = data.depth_m[data.test_idx]
     test = embed(model, test_depth, np.isfinite(test_depth))
     record["embed_seconds"] = round(time.perf_counter() - started, 3)
+    health = encoder_health(record, train[:, 0])
+    if health["verdict"] == "collapsed":
+        # refused before anything is written: no run reads a collapsed encoder
+        raise ValueError(
+            f"{dataset}: the encoder of seed {cfg.seed} collapsed: {'; '.join(health['failed'])}; "
+            "change its seed or recipe (datasets.NAME.embedding.encoder), see docs/method.md."
+        )
+    if log is not None and health["verdict"] != "healthy":
+        print(
+            f"{dataset}: encoder seed {cfg.seed} is {health['verdict']}: {health['failed']}",
+            file=log,
+        )
     save_model(model, out["encoder"])
+    record["weights_sha256"] = file_sha256(out["encoder"])
+    record["health"] = health
 
     def write(tmp):
         with open(tmp, "wb") as fh:
@@ -150,55 +175,56 @@ class ProbeData:
     n_classes: int
     n_total: int
     standin: bool
+    encoder: tuple[int, str] = (0, "healthy")  # (seed, health verdict) of the encoder
 
 
-def probe_runs(
-    dataset_path,
-    embeddings_path,
-    card_path,
-    *,
-    runs: ProbeRuns,
-    out_path,
-    log=None,
-) -> list[dict]:
+def probe_runs(dataset_path, encoders: dict, *, runs: ProbeRuns, out_path, log=None) -> list[dict]:
     """Every round of ``runs`` (one method, every seed) in the embedding framework.
 
-    Writes a JSON list of metrics records (one per seed and round, as
-    ``spl_al.report`` reads them, with ``framework: embedding`` and each round's
-    labeled set) to ``out_path``.
+    ``encoders``: encoder seed -> {"embeddings": path, "card": path} of every encoder
+    ``runs.encoders`` names (run seed i reads ``runs.encoders[i]``). Writes a JSON list
+    of metrics records (one per seed and round, as ``spl_al.report`` reads them, with
+    ``framework: embedding``, the run's ``encoder`` seed and its health, and each
+    round's labeled set) to ``out_path``.
     """
     dataset, method_name, al = runs.dataset, runs.method_name, runs.al
     from threadpoolctl import threadpool_limits
 
     data = Dataset.load(dataset_path, skip=SCENE_FIELDS)
-    check_card(
-        read_json(card_path),
-        dataset=dataset,
-        variants=runs.variants,
-        image_shape=data.depth_m.shape[1:],
-        where=card_path,
-    )
-    emb_train, emb_test = load_embeddings(embeddings_path, data)
-    n_train = len(data.train_idx)
-    facts = ProbeData(
-        train=emb_train,
-        test=emb_test,
-        train_labels=data.labels[data.train_idx],
-        test_labels=data.labels[data.test_idx],
-        test_levels=data.level[data.test_idx],
-        n_classes=len(data.classes),
-        n_total=len(data) if al.get("ratio_of", "train") == "all" else n_train,
-        standin=bool(data.meta.get("synthetic_standin", False)),
-    )
+    facts = {}
+    for eseed in sorted(set(runs.encoders)):
+        if eseed not in encoders:
+            raise ValueError(f"{dataset}/{method_name}: no files of encoder seed {eseed} given.")
+        card = read_json(encoders[eseed]["card"])
+        check_card(
+            card,
+            dataset=dataset,
+            variants=runs.variants,
+            image_shape=data.depth_m.shape[1:],
+            where=encoders[eseed]["card"],
+            encoder_seed=eseed,
+        )
+        emb_train, emb_test = load_embeddings(encoders[eseed]["embeddings"], data)
+        facts[eseed] = ProbeData(
+            train=emb_train,
+            test=emb_test,
+            train_labels=data.labels[data.train_idx],
+            test_labels=data.labels[data.test_idx],
+            test_levels=data.level[data.test_idx],
+            n_classes=len(data.classes),
+            n_total=len(data) if al.get("ratio_of", "train") == "all" else len(data.train_idx),
+            standin=bool(data.meta.get("synthetic_standin", False)),
+            encoder=(eseed, (card.get("health") or {}).get("verdict", "healthy")),
+        )
     spec = MethodSpec(name=method_name, **{"params": {}, **runs.method})
     started = time.perf_counter()
     records = []
     # One BLAS/OpenMP thread, the job's one core: two -j2 jobs whose OpenMP threads
     # spin on the same two cores made a fit ~250x slower (7 s instead of 27 ms).
     with threadpool_limits(limits=1):
-        for seed in runs.seeds:
+        for seed, eseed in zip(runs.seeds, runs.encoders, strict=True):
             records += _run(
-                facts,
+                facts[eseed],
                 spec,
                 which=(dataset, int(seed)),
                 al=al,
@@ -209,7 +235,7 @@ def probe_runs(
     if log is not None:
         print(
             f"{dataset}/{method_name}: {len(records)} rounds of {len(runs.seeds)} seeds "
-            f"in {time.perf_counter() - started:.1f} s",
+            f"({len(facts)} encoders) in {time.perf_counter() - started:.1f} s",
             file=log,
         )
     write_json(records, out_path)
@@ -240,6 +266,8 @@ def _record(facts: ProbeData, model, method: str, *, which, n_labeled, n_images)
         "framework": FRAMEWORK,
         "train_images": int(n_images),
         "precision": "fp32",
+        "encoder": int(facts.encoder[0]),
+        "encoder_health": facts.encoder[1],
     }
 
 

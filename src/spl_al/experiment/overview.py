@@ -10,6 +10,7 @@ from __future__ import annotations
 
 from spl_al.config import is_standin
 from spl_al.data.sources import is_synthesised, source_kind
+from spl_al.experiment.encoders import encoder_seeds
 from spl_al.experiment.plan import experiments_of, labeled_at, sweep_table_spec
 from spl_al.report.table_kinds import TABLE_KINDS, TableContext
 
@@ -50,9 +51,17 @@ def dataset_lines(config: dict, dataset: str) -> list[str]:
     embedding = entry.get("embedding")
     if embedding:
         steps = (embedding.get("encoder") or {}).get("steps", 300)
+        k = len(encoder_seeds(entry))
+        block = (embedding.get("encoder") or {}).get("block")
+        encoders = (
+            f"{k} self-supervised encoders of {steps} steps, run seed s reading number "
+            f"(s - 1) // {block}, statistics over the encoders"
+            if k > 1
+            else f"one self-supervised encoder of {steps} steps"
+        )
         lines.append(
-            f"  embedding framework (a linear classifier on a frozen self-supervised "
-            f"encoder, {steps} steps, learned once; results in .../{dataset}/embedding/):"
+            f"  embedding framework (a linear classifier on frozen embeddings; {encoders}; "
+            f"results in .../{dataset}/embedding/):"
         )
         exps = experiments_of(config, dataset, framework="embedding")
         lines += ["  " + line for line in _experiment_lines(config, dataset, exps, human)]

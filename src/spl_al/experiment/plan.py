@@ -15,6 +15,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 from spl_al.data.sources import check_entry, is_synthesised
+from spl_al.experiment.encoders import check_encoders
 from spl_al.report.table_kinds import TABLE_KINDS, TableContext
 from spl_al.scenes.objects import CATEGORIES
 from spl_al.strategies import get as get_strategy
@@ -455,3 +456,10 @@ def check_plan(config: dict) -> None:
                 )
         _check_batches(dataset, entry, max(runs.values(), default=0))
         _check_candidate_pools(config, dataset, runs, specs)
+        embedding_seeds = [s for _m, s in dataset_runs(config, dataset, "embedding")]
+        ssl_seeds = [
+            s
+            for m, s in dataset_runs(config, dataset)
+            if m in specs and specs[m].features == "embedding"
+        ]
+        check_encoders(dataset, entry, [*embedding_seeds, *ssl_seeds], embedding_seeds)

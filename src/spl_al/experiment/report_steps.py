@@ -14,11 +14,38 @@ EMBEDDING_NOTE = (
 
 
 def framework_notes(df) -> list[str]:
-    """The note a table, figure or summary of these records carries for its framework."""
+    """The notes a table, figure or summary of these records carries for its framework:
+    in the embedding framework, what it is, and the encoders its runs read (how many,
+    seeds per encoder, which are doubtful)."""
     # pandas on demand (importing this module does not load it)
     from spl_al.report import framework_of
 
-    return [EMBEDDING_NOTE] if framework_of(df) == "embedding" else []
+    if framework_of(df) != "embedding":
+        return []
+    return [EMBEDDING_NOTE, *encoder_notes(df)]
+
+
+def encoder_notes(df) -> list[str]:
+    """'12 encoders x 10 seeds (intervals and tests over the encoders' means)', and
+    the doubtful encoders of the records' runs, if any."""
+    known = df[df["encoder"] >= 0] if "encoder" in df else df.iloc[:0]
+    if known.empty:
+        return []
+    per = known.groupby("encoder")["seed"].nunique()
+    seeds = f"{per.iloc[0]}" if per.nunique() == 1 else f"{per.min()}-{per.max()}"
+    k = len(per)
+    notes = [
+        f"{k} encoder{'s' if k > 1 else ''} x {seeds} seeds "
+        f"(intervals and tests over the encoders' means)"
+    ]
+    doubtful = sorted(known.loc[known["encoder_health"] == "doubtful", "encoder"].unique())
+    if doubtful:
+        notes.append(
+            f"doubtful encoder{'s' if len(doubtful) > 1 else ''} (seed "
+            f"{', '.join(str(int(e)) for e in doubtful)}): loss or effective rank near "
+            "collapse, docs/method.md"
+        )
+    return notes
 
 
 def make_table(
@@ -81,13 +108,16 @@ def make_summary(metrics_paths, out_path, notes=(), families=None) -> dict:
     return result
 
 
-def make_stats(metrics_paths, experiments: dict, sweeps: dict, out: dict) -> None:
+def make_stats(
+    metrics_paths, experiments: dict, sweeps: dict, *, out: dict, claim_notes=None
+) -> None:
     """Paired statistics of a dataset: ``comparisons``, ``claims`` and the decomposition
     of DUIS − Random (CSV + Markdown) and the AUBC chart. ``experiments``: as run
     (``spl_al.experiment.plan.experiments_of``: the budget's ``families``). ``out``:
     paths by name (comparisons_csv, comparisons_md, claims_csv, claims_md,
-    decomposition_csv, decomposition_md, aubc_png, aubc_pdf). Claims are judged on the
-    comparisons as written, so the two files cannot disagree."""
+    decomposition_csv, decomposition_md, aubc_png, aubc_pdf). ``claim_notes``: claim id
+    -> sentence added to its reason (``spl_al.report.claims.encoder_claim_notes``).
+    Claims are judged on the comparisons as written, so the two files cannot disagree."""
     # pandas on demand (importing this module does not load it)
     import pandas as pd
 
@@ -111,6 +141,7 @@ def make_stats(metrics_paths, experiments: dict, sweeps: dict, out: dict) -> Non
         budget_exp.get("families"),
         levels_in_paper=in_paper,
         framework=report.framework_of(df),
+        notes=claim_notes,
     )
     verdicts = at_precision(verdicts, report.trained_at(df))  # decided in fp32 alone
     verdicts["framework"] = report.framework_of(df)

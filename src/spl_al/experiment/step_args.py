@@ -47,7 +47,8 @@ class ProbeRuns:
 
     ``method``: its ``MethodSpec`` fields; ``variants``, ``al``: the dataset's config
     blocks (the encoder's card must match the former); ``rounds``: per run, round 0
-    included; ``probe``: the dataset's ``embedding.probe`` (``c``)."""
+    included; ``probe``: the dataset's ``embedding.probe`` (``c``); ``encoders``: the
+    encoder seed of each run seed (``spl_al.experiment.encoders.encoder_of``)."""
 
     dataset: str
     method_name: str
@@ -57,6 +58,7 @@ class ProbeRuns:
     seeds: tuple[int, ...]
     rounds: int
     probe: dict | None = None
+    encoders: tuple[int, ...] = ()  # the encoder seed each of ``seeds`` reads
 
 
 FRESH = RoundStart()

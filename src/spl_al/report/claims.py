@@ -120,6 +120,7 @@ COLUMNS = (
     "min_n",
     "rule",
     "seeds_needed",
+    "unit",
     "source",
     "dataset",
     "metric",
@@ -489,6 +490,7 @@ def claims(
     *,
     levels_in_paper: bool = True,
     framework: str = "supervised",
+    notes: dict | None = None,
 ) -> pd.DataFrame:
     """The paper's claims and this project's extensions judged on one dataset's
     comparisons frame (see module docstring).
@@ -497,8 +499,10 @@ def claims(
     families (``spl_al.experiment.plan.budget_families``); None: one family, every
     budget method. ``levels_in_paper``: whether the paper reports a per-MSPPP-level
     split for this protocol (it does for its real and segmentation data, not for its
-    synthetic classification). Returns one row per claim whose comparisons exist,
-    columns ``COLUMNS``; ``source`` is ``paper`` or ``extension`` (``SOURCES``).
+    synthetic classification). ``notes``: claim id -> a sentence appended to that
+    claim's reason (``encoder_claim_notes``). Returns one row per claim whose
+    comparisons exist, columns ``COLUMNS``; ``source`` is ``paper`` or ``extension``
+    (``SOURCES``); ``unit`` what ``seeds_needed`` counts: seeds, or encoders.
     """
     if cmp.empty:
         return pd.DataFrame(columns=list(COLUMNS))
@@ -514,10 +518,14 @@ def claims(
         _alpha_claim(cmp),
     ]
     rows = [r for r in rows if r is not None]
+    unit = str(first["unit"]) if "unit" in cmp and isinstance(first["unit"], str) else "seed"
     for row in rows:
         row["source"] = SOURCES.get(row["claim_id"], EXTENSION)
+        row["unit"] = unit
         if row["claim_id"] == "duis_best_every_level" and not levels_in_paper:
             row["source"] = EXTENSION
+        if (notes or {}).get(row["claim_id"]):
+            row["reason"] = f"{row['reason']} {notes[row['claim_id']]}"
     frame = pd.DataFrame(rows, columns=list(COLUMNS)[:-2])
     frame["dataset"] = first["dataset"]
     frame["metric"] = first["metric"]
@@ -576,16 +584,39 @@ def rule_notes() -> dict[str, str]:
     }
 
 
-def seeds_note() -> str:
-    """What the seeds-needed column means, in one sentence."""
+def seeds_note(unit: str = "seed") -> str:
+    """What the seeds-needed column means, in one sentence; ``unit``: "seed", or
+    "encoder" where the units are encoders' means (``spl_al.report.stats.unit_means``)."""
+    units = f"{unit}s"
+    d = "d (a difference of encoders' means)" if unit == "encoder" else "d"
     return (
-        f"Seeds needed (80% power): the fewest seeds (at least {seeds_for_level()}, the "
-        "fewest at which the sign-flip test can reach 0.05) at which a two-sided paired "
-        "t-test at 0.05 has 80% power for the observed effect mean(d)/sd(d), for the "
-        "comparison the claim needs that needs the most ('not worse than': "
-        f"(mean(d) + {MARGIN_PP:g} pp)/sd(d)); >100: more than 100; -: a needed comparison "
-        "shows no effect (or has fewer than 2 seeds)."
+        f"{units.capitalize()} needed (80% power): the fewest {units} (at least "
+        f"{seeds_for_level()}, the fewest at which the sign-flip test can reach 0.05) at "
+        f"which a two-sided paired t-test at 0.05 has 80% power for the observed effect "
+        f"mean(d)/sd(d) of {d}, for the comparison the claim needs that needs the most "
+        f"('not worse than': (mean(d) + {MARGIN_PP:g} pp)/sd(d)); >100: more than 100; -: a "
+        f"needed comparison shows no effect (or has fewer than 2 {units})."
     )
+
+
+SIV_ENCODER_NOTE = (
+    "(Embedding framework: the encoder was trained with a frame's SIV variants as "
+    "positives, to embed them alike, which is the disagreement this term reads; on the "
+    "validation split the inconsistency still varies over the pool (coefficient of "
+    "variation 2.3 on real_cls, 1.9 on synth_cls, against 1.4 and 1.5 with the generic "
+    "objective): docs/benchmarks.md.)"
+)
+"""Appended to the claims about DUIS's inconsistency term when the encoder's objective
+is ``siv`` (``encoder_claim_notes``); the figures are ``python -m spl_al.bench
+encoders``'s (docs/benchmarks.md, "Encoders")."""
+
+INCONSISTENCY_CLAIMS = ("inconsistency_over_diversity", "alpha_half_not_worse")
+
+
+def encoder_claim_notes(objective: str) -> dict[str, str]:
+    """Claim id -> note for the embedding framework's claims about the inconsistency
+    term, given the encoder's ``objective`` ("siv" or "generic")."""
+    return dict.fromkeys(INCONSISTENCY_CLAIMS, SIV_ENCODER_NOTE) if objective == "siv" else {}
 
 
 def claims_rule_text() -> str:
@@ -617,6 +648,11 @@ def render_claims_markdown(frame: pd.DataFrame, dataset: str | None = None) -> s
             "\n".join([*lines, "", "No claim's experiment is configured for this dataset."]) + "\n"
         )
     sources = frame["source"] if "source" in frame else pd.Series(PAPER, index=frame.index)
+    unit = (
+        str(frame["unit"].iloc[0])
+        if "unit" in frame and isinstance(frame["unit"].iloc[0], str)
+        else "seed"
+    )
     for source, title in ((PAPER, "The paper's claims"), (EXTENSION, "Extensions")):
         part = frame[sources.fillna(PAPER) == source]
         if part.empty:
@@ -625,7 +661,7 @@ def render_claims_markdown(frame: pd.DataFrame, dataset: str | None = None) -> s
             "",
             f"*{title}*",
             "",
-            "| Claim | Verdict | Why | Seeds needed (80% power) | Evidence |",
+            f"| Claim | Verdict | Why | {unit.capitalize()}s needed (80% power) | Evidence |",
             "|:---|:---|:---|---:|:---|",
         ]
         for _, row in part.iterrows():
@@ -640,6 +676,6 @@ def render_claims_markdown(frame: pd.DataFrame, dataset: str | None = None) -> s
         f"Inconclusive: neither. Resolved: {rule_text()}. 'Not worse than' needs every 95% "
         f"interval above -{MARGIN_PP:g} pp.",
         "",
-        seeds_note(),
+        seeds_note(unit),
     ]
     return "\n".join(lines) + "\n"

@@ -10,10 +10,13 @@ parameter at its round. One row per (point, pair of methods), in percentage poin
 (metric x 100); ``tables/comparisons.csv`` is this frame and the claims read it.
 
 Columns: experiment, point, parameter, round, n_labeled, method_a, method_b, value_a,
-value_b, n, mean_a, mean_b, diff (mean of A - B over paired seeds), sd_diff (sd of the
-paired differences), ci_low, ci_high, p_value, p_min, rule ("5%" from 6 seeds, else
-"small-n"), resolved, direction, span (AUBC rows: the rounds and ratios covered),
-dataset, metric, scale, synthetic_standin.
+value_b, n, mean_a, mean_b, diff (mean of A - B over paired units), sd_diff (sd of the
+paired differences), ci_low, ci_high, p_value, p_min, rule ("5%" from 6 units, else
+"small-n"), resolved, direction, unit ("seed", or "encoder" in the embedding
+framework: ``spl_al.report.stats.unit_means``), n_seeds (the seeds behind the units),
+var_between and var_within (points squared: the paired difference's variance between
+the encoders' means and within an encoder; empty where the unit is the seed), span
+(AUBC rows: the rounds and ratios covered), dataset, metric, scale, synthetic_standin.
 """
 
 from __future__ import annotations
@@ -25,7 +28,14 @@ import pandas as pd
 
 from spl_al.report.display import LEVEL_LABELS, METRIC_LABELS, format_ratio, method_label
 from spl_al.report.records import LEVELS
-from spl_al.report.stats import aubc_per_seed, pairwise, query_rounds, rule_text, span_text
+from spl_al.report.stats import (
+    aubc_per_seed,
+    pairwise,
+    query_rounds,
+    rule_text,
+    span_text,
+    values_of,
+)
 
 COLUMNS = (
     "experiment",
@@ -49,6 +59,10 @@ COLUMNS = (
     "rule",
     "resolved",
     "direction",
+    "unit",
+    "n_seeds",
+    "var_between",
+    "var_within",
     "span",
     "dataset",
     "metric",
@@ -60,7 +74,7 @@ _SCALED = ("mean_a", "mean_b", "diff", "sd_diff", "ci_low", "ci_high")
 
 def _values(d: pd.DataFrame, methods, round_: int, value_col: str = "value") -> pd.DataFrame:
     at = d[d["method"].isin(methods) & (d["round"] == round_)]
-    return pd.DataFrame({"method": at["method"], "seed": at["seed"], "value": at[value_col]})
+    return values_of(at, value_col)
 
 
 def _rows(values: pd.DataFrame, methods, **fields) -> list[dict]:
@@ -83,6 +97,8 @@ def comparisons_frame(d: pd.DataFrame, rows: list[dict], *, metric_scale: float 
     scale = float(metric_scale)
     for col in _SCALED:
         frame[col] = frame[col].astype(float) * scale
+    for col in ("var_between", "var_within"):  # variances: in points squared
+        frame[col] = frame[col].astype(float) * scale**2
     for col in ("round", "n_labeled"):
         frame[col] = pd.array(frame[col], dtype="Int64")
     frame["resolved"] = frame["resolved"].astype(bool)
@@ -202,21 +218,33 @@ def render_comparisons_markdown(frame: pd.DataFrame) -> str:
         return "**No paired comparisons: no experiment of this dataset has two methods.**\n"
     first = frame.iloc[0]
     metric = METRIC_LABELS.get(first["metric"], first["metric"])
+    by_encoder = "unit" in frame and (frame["unit"] == "encoder").all()
+    over = (
+        "over the encoders both methods ran: each encoder's mean over its run seeds, so n "
+        "counts encoders (the rule's n too)"
+        if by_encoder
+        else "over the seeds both methods ran"
+    )
     lines = [
         f"**Paired comparisons on {first['dataset']}: {metric}, A − B in percentage points "
-        "over the seeds both methods ran.**",
+        f"{over}.**",
         "",
         f"Rule: {rule_text()}. p: exact two-sided sign-flip test over all 2^n sign "
         "vectors (p_min = 2/2^n); interval: 95% t-interval of the mean paired difference.",
     ]
-    for experiment, part in frame.groupby("experiment", sort=False):
+    if by_encoder:
         lines += [
             "",
-            f"*{experiment}*",
-            "",
-            "| Point | A − B | n | diff [95% CI] (pp) | p (min) | resolved |",
-            "|:---|:---|---:|---:|---:|:---|",
+            "Variance of the paired difference (pp²): between encoders, of the encoders' "
+            "means; within, of the run seeds around their encoder's mean (pooled).",
         ]
+    head = "| Point | A − B | n | diff [95% CI] (pp) | p (min) | resolved |"
+    rule = "|:---|:---|---:|---:|---:|:---|"
+    if by_encoder:
+        head += " var between / within |"
+        rule += "---:|"
+    for experiment, part in frame.groupby("experiment", sort=False):
+        lines += ["", f"*{experiment}*", "", head, rule]
         for _, row in part.iterrows():
             names = f"{method_label(row['method_a'])} − {method_label(row['method_b'])}"
             if row["experiment"] == "sensitivity":
@@ -228,11 +256,14 @@ def render_comparisons_markdown(frame: pd.DataFrame) -> str:
             point = row["point"]
             if isinstance(row.get("span"), str) and row["span"]:
                 point += f", {row['span']}"
-            lines.append(
+            line = (
                 f"| {point} | {names} | {int(row['n'])} | {_num(row['diff'])} "
                 f"[{_num(row['ci_low'])}, {_num(row['ci_high'])}] | "
                 f"{_num(row['p_value'], '.3g')} ({_num(row['p_min'], '.3g')}) | {verdict} |"
             )
+            if by_encoder:
+                line += f" {_num(row['var_between'])} / {_num(row['var_within'])} |"
+            lines.append(line)
     if bool(first["synthetic_standin"]):
         lines += ["", f"*{first['dataset']} is a synthetic stand-in for real data.*"]
     return "\n".join(lines) + "\n"

@@ -21,7 +21,14 @@ import pandas as pd
 
 from spl_al.report.display import FULL_METHOD, format_ratio, method_label
 from spl_al.report.records import one_dataset
-from spl_al.report.stats import aubc_per_seed, paired_test, query_rounds, seed_matrix, span_text
+from spl_al.report.stats import (
+    aubc_per_seed,
+    paired_test,
+    query_rounds,
+    seed_matrix,
+    span_text,
+    values_of,
+)
 
 PARTS = (
     ("variant_training", "syn_random", "random", "training on the variants"),
@@ -102,7 +109,7 @@ def decomposition(
     rows = []
     for r in sorted(int(x) for x in queried["round"].unique()):
         at = queried[queried["round"] == r]
-        wide = seed_matrix(at[["method", "seed", "value"]], METHODS)
+        wide = seed_matrix(values_of(at), METHODS)
         point = f"round {r} ({format_ratio(at['ratio'].mean())})"
         n_labeled = int(at["n_labeled"].median())
         rows += _point_rows(wide, metric_scale, point=point, round=r, n_labeled=n_labeled)

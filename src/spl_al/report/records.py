@@ -54,12 +54,18 @@ FRAME_COLUMNS = (
     "images_seen",
     "precision",
     "framework",
+    "encoder",
+    "encoder_health",
     "source",
 )
 
 # How a round's model learned (its record's ``framework``; absent: supervised):
 # ``spl_al.experiment.plan.FRAMEWORKS``.
 FRAMEWORKS = ("supervised", "embedding")
+
+# An embedding-framework run's encoder (its record's ``encoder_health``;
+# ``spl_al.training.contrastive.encoder_health``; a collapsed one never reaches a run).
+ENCODER_HEALTH = ("healthy", "doubtful")
 
 # What a round's model may have been trained at (its record's ``precision``).
 TRAINED_AT = ("fp32", "bf16", "fp16")
@@ -97,6 +103,11 @@ def _check_optional(record: Mapping, bad) -> None:
         raise bad("precision", f"one of {list(TRAINED_AT)}")
     if record.get("framework", FRAMEWORKS[0]) not in FRAMEWORKS:
         raise bad("framework", f"one of {list(FRAMEWORKS)}")
+    encoder = record.get("encoder")
+    if encoder is not None and not (_is_int(encoder) and encoder >= 0):
+        raise bad("encoder", "an encoder seed, an integer >= 0")
+    if record.get("encoder_health", ENCODER_HEALTH[0]) not in ENCODER_HEALTH:
+        raise bad("encoder_health", f"one of {list(ENCODER_HEALTH)}")
 
 
 def validate_record(record, where: str = "record") -> dict:
@@ -168,6 +179,9 @@ def validate_record(record, where: str = "record") -> dict:
         **{key: float(v) if v is not None else math.nan for key, v in counts.items()},
         "precision": record.get("precision") or "",
         "framework": record.get("framework") or FRAMEWORKS[0],
+        # the encoder seed the run read (embedding framework), -1: none
+        "encoder": int(encoder) if (encoder := record.get("encoder")) is not None else -1,
+        "encoder_health": record.get("encoder_health") or "",
         "source": where,
     }
 

@@ -13,7 +13,7 @@ import pandas as pd
 from spl_al.plotting import fit_texts, new_figure
 from spl_al.report.display import METRIC_LABELS, method_colors, method_label, ordered_methods
 from spl_al.report.records import one_dataset
-from spl_al.report.stats import aubc_per_seed, mean_interval, span_text
+from spl_al.report.stats import aubc_per_seed, mean_interval, span_text, unit_means
 
 
 def _metric_name(metric: str) -> str:
@@ -33,11 +33,13 @@ def aubc_figure(df: pd.DataFrame, methods: Sequence[str] | None = None, dataset=
     colors = method_colors(methods)
     fig = new_figure(6.4, 0.5 * len(methods) + 1.6)
     ax = fig.add_subplot()
+    units = unit_means(areas.rename(columns={"aubc": "value"}))
     for y, method in enumerate(methods):
         values = 100 * areas.loc[areas["method"] == method, "aubc"].to_numpy()
         if values.size == 0:
             continue
-        stats = mean_interval(values)
+        # the interval over the units of replication: seeds, or encoders' means
+        stats = mean_interval(100 * units.loc[units["method"] == method, "value"].to_numpy())
         ax.scatter(values, np.full(values.size, y), s=14, color=colors[method], alpha=0.5)
         if np.isfinite(stats["ci_low"]):
             ax.errorbar(
@@ -54,12 +56,14 @@ def aubc_figure(df: pd.DataFrame, methods: Sequence[str] | None = None, dataset=
     ax.set_yticks(range(len(methods)), [method_label(m) for m in methods])
     ax.invert_yaxis()
     n = int(areas["seed"].nunique()) if not areas.empty else 0
+    k = int(units["seed"].nunique()) if not units.empty else 0
+    over = f"n = {n} seeds" if k == n else f"{k} encoders' means ({n} seeds)"
     metric = _metric_name(d["metric"].iloc[0])
     standin = ", synthetic stand-in" if bool(d["synthetic_standin"].any()) else ""
     span = span_text(d[d["method"].isin(methods)])
     ax.set_title(
         f"{d['dataset'].iloc[0]}{standin}: area under the budget curve, {span}\n"
-        f"mean and 95% t-interval over n = {n} seeds; small dots: single seeds",
+        f"mean and 95% t-interval over {over}; small dots: single seeds",
         fontsize=10,
     )
     ax.set_xlabel(f"AUBC: mean {metric} (%) over the labeling-ratio range")

@@ -39,6 +39,16 @@ so two methods are compared *per seed*: d_s = x_A,s - x_B,s over the seeds both 
   seeds), not a guarantee.
 - **AUBC** (``curve_area``, ``aubc``): area under a budget curve over its ratio span,
   trapz(values, ratio) / (ratio_max - ratio_min); ``summary`` imports it from here.
+- **Encoders as the unit** (``unit_means``): in the embedding framework every run seed
+  reads one of K self-supervised encoders (``spl_al.experiment.encoders``), and a
+  rerun draws the encoders again. Seeds sharing an encoder are not independent draws,
+  so where every value names its encoder (column ``encoder`` >= 0) each method's
+  values are first averaged within each encoder, and the K encoder means are the
+  units of everything above: the paired differences, the t-interval (K - 1 degrees of
+  freedom), the exact sign-flip p over the 2^K sign patterns, the rules and the units
+  needed (then encoders, not seeds). ``pairwise`` also reports the variance of the
+  paired difference between encoders (of the K means) and within them (pooled over the
+  seeds of each).
 """
 
 from __future__ import annotations
@@ -333,7 +343,7 @@ def aubc_per_seed(df: pd.DataFrame, value_col: str = "value") -> pd.DataFrame:
 
     A seed's curve counts only when it has every round its method has (a shorter
     curve spans another budget range and would not compare). Returns columns
-    method, seed, aubc, n_rounds, ratio_min, ratio_max.
+    method, seed, aubc, n_rounds, ratio_min, ratio_max, encoder (-1: none).
     """
     sub = df[df[value_col].notna()]
     rounds_of = sub.groupby("method")["round"].nunique()
@@ -349,9 +359,10 @@ def aubc_per_seed(df: pd.DataFrame, value_col: str = "value") -> pd.DataFrame:
                 "n_rounds": int(g["round"].nunique()),
                 "ratio_min": float(g["ratio"].min()),
                 "ratio_max": float(g["ratio"].max()),
+                "encoder": int(g["encoder"].iloc[0]) if "encoder" in g else -1,
             }
         )
-    cols = ["method", "seed", "aubc", "n_rounds", "ratio_min", "ratio_max"]
+    cols = ["method", "seed", "aubc", "n_rounds", "ratio_min", "ratio_max", "encoder"]
     return pd.DataFrame(rows, columns=cols)
 
 
@@ -396,29 +407,87 @@ def mean_interval(values, level: float = LEVEL) -> dict:
 # ---------------------------------------------------------------- many methods at one point
 
 
+def values_of(records: pd.DataFrame, value_col: str = "value") -> pd.DataFrame:
+    """Columns method, seed, value (from ``value_col``) and encoder (-1 where the
+    records name none) of some records: what the functions below compare."""
+    encoder = records.get("encoder", -1)
+    return pd.DataFrame(
+        {
+            "method": records["method"],
+            "seed": records["seed"],
+            "value": records[value_col],
+            "encoder": encoder,
+        }
+    )
+
+
+def clustered(values: pd.DataFrame) -> bool:
+    """Whether every row of ``values`` names the encoder its seed read (column
+    ``encoder`` >= 0): then the encoders are the units of replication."""
+    return "encoder" in values.columns and not values.empty and bool((values["encoder"] >= 0).all())
+
+
+def unit_means(values: pd.DataFrame) -> pd.DataFrame:
+    """``values`` (method, seed, value[, encoder]) at its unit of replication, as
+    columns method, seed, value: where ``clustered``, each method's mean over the seeds
+    of each encoder, the encoder's seed standing in the column ``seed``; else as given."""
+    if not clustered(values):
+        return values[["method", "seed", "value"]]
+    means = values.groupby(["method", "encoder"], sort=True)["value"].mean().reset_index()
+    return means.rename(columns={"encoder": "seed"})
+
+
 def seed_matrix(values: pd.DataFrame, methods) -> pd.DataFrame:
-    """Seeds x methods of a frame with columns method, seed, value (NaN where missing)."""
-    wide = values.pivot_table(index="seed", columns="method", values="value", aggfunc="first")
+    """Units x methods of a frame with columns method, seed, value (NaN where missing):
+    seeds, or encoders where the frame names them (``unit_means``)."""
+    units = unit_means(values)
+    wide = units.pivot_table(index="seed", columns="method", values="value", aggfunc="first")
     return wide.reindex(columns=list(methods))
+
+
+def _variance_parts(values: pd.DataFrame, a: str, b: str) -> dict:
+    """Seeds behind the units of A - B, and (clustered) the variance of the difference
+    between the encoders' means and within an encoder (pooled over the encoders)."""
+    wide = values.pivot_table(index="seed", columns="method", values="value", aggfunc="first")
+    d = (wide[a] - wide[b]).dropna()
+    out = {"n_seeds": int(d.size), "var_between": math.nan, "var_within": math.nan}
+    if clustered(values) and d.size:
+        encoder = values.groupby("seed")["encoder"].first().reindex(d.index)
+        by = d.groupby(encoder)
+        if by.ngroups > 1:
+            out["var_between"] = float(by.mean().var(ddof=1))
+        within = by.var(ddof=1).dropna()
+        if not within.empty:
+            out["var_within"] = float(within.mean())
+    return out
 
 
 def pairwise(values: pd.DataFrame, methods, level: float = LEVEL) -> pd.DataFrame:
     """Paired test of every pair of ``methods`` at one point (a round, a level, AUBC).
 
-    ``values``: columns method, seed, value. Pairs are (A, B) with A after B in
-    ``methods`` (so with DUIS last, every difference is DUIS minus a baseline).
-    Returns one row per pair: method_a, method_b and ``paired_test``'s fields.
+    ``values``: columns method, seed, value (and ``encoder``: ``unit_means``). Pairs
+    are (A, B) with A after B in ``methods`` (so with DUIS last, every difference is
+    DUIS minus a baseline). Returns one row per pair: method_a, method_b,
+    ``paired_test``'s fields over the units, unit ("seed" or "encoder"), n_seeds,
+    var_between and var_within (``_variance_parts``; NaN unless clustered).
     """
     wide = seed_matrix(values, methods)
     methods = list(wide.columns)
+    unit = "encoder" if clustered(values) else "seed"
     pairs = [(a, b) for i, a in enumerate(methods) for b in methods[:i]]
     diffs = []
     for a, b in pairs:
         d = wide[a].to_numpy(float) - wide[b].to_numpy(float)
         diffs.append(d[np.isfinite(d)])
-    ps = sign_flip_ps(diffs)  # beyond 40 seeds, one pass of draws for every pair
+    ps = sign_flip_ps(diffs)  # beyond 40 units, one pass of draws for every pair
     rows = [
-        {"method_a": a, "method_b": b, **paired_test(wide[a], wide[b], level, p=p)}
+        {
+            "method_a": a,
+            "method_b": b,
+            **paired_test(wide[a], wide[b], level, p=p),
+            "unit": unit,
+            **_variance_parts(values, a, b),
+        }
         for (a, b), p in zip(pairs, ps, strict=True)
     ]
     return pd.DataFrame(rows)
@@ -431,7 +500,7 @@ def leader_test(values: pd.DataFrame, level: float = LEVEL) -> dict | None:
     Returns None with fewer than two methods holding a value, else leader, runner_up
     and ``paired_test`` (leader minus runner-up).
     """
-    means = values.dropna(subset=["value"]).groupby("method")["value"].mean()
+    means = unit_means(values.dropna(subset=["value"])).groupby("method")["value"].mean()
     if len(means) < 2:
         return None
     top = means.sort_values(ascending=False, kind="stable")

@@ -11,10 +11,12 @@ from spl_al.report.display import ordered_methods
 from spl_al.report.records import one_dataset, trained_at
 from spl_al.report.stats import (
     aubc_per_seed,
+    clustered,
     curve_area,
     mean_interval,
     query_rounds,
     span_text,
+    unit_means,
 )
 
 
@@ -24,7 +26,8 @@ def _num(x) -> float | None:
 
 
 def _aubc(areas: pd.DataFrame, span: pd.DataFrame) -> dict:
-    stats = mean_interval(areas["aubc"])
+    units = unit_means(areas.rename(columns={"aubc": "value"}))
+    stats = mean_interval(units["value"])
     return {
         "rounds": [int(span["round"].min()), int(span["round"].max())],
         "span": span_text(span),
@@ -32,6 +35,7 @@ def _aubc(areas: pd.DataFrame, span: pd.DataFrame) -> dict:
         "ci_low": _num(stats["ci_low"]),
         "ci_high": _num(stats["ci_high"]),
         "n": stats["n"],
+        "unit": "encoder" if clustered(areas) else "seed",
         "per_seed": {
             str(int(s)): float(v) for s, v in zip(areas["seed"], areas["aubc"], strict=True)
         },
@@ -42,16 +46,19 @@ def summary(df: pd.DataFrame, dataset: str | None = None) -> dict:
     """Per-method summary of one dataset, in the metric's own scale [0, 1].
 
     Returns ``{"dataset", "metric", "synthetic_standin", "n_seeds", "precision" (what
-    the models were trained at; null when the records do not say), "methods": {method:
+    the models were trained at; null when the records do not say), "encoders"
+    (``encoders_of``), "methods": {method:
     {"auc", "final_mean", "final_std", "final_round", "final_n_labeled", "final_ratio",
     "n_seeds", "n_rounds", "partial_rounds"}}}``. ``auc`` is ``curve_area`` of the mean
     curve (mean over the seeds present at each round); ``final_*`` describe the last
     round; ``partial_rounds`` lists rounds with fewer seeds than the method has; a
     std over one seed is null. ``aubc`` is the per-seed area under the budget curve
     (``spl_al.report.stats.aubc_per_seed``): its mean, 95% t-interval (null for one
-    seed), n, the value of each seed, and the ``rounds`` [first, last] and ``span``
-    (rounds and ratios in words) it covers. ``auc`` and ``aubc`` cover the query rounds
-    (>= 1) of the method: round 0 holds the same labels for every method.
+    unit) and n over its units (``unit``: seeds, or encoders where the runs read
+    several: ``spl_al.report.stats.unit_means``), the value of each seed, and the
+    ``rounds`` [first, last] and ``span`` (rounds and ratios in words) it covers. ``auc``
+    and ``aubc`` cover the query rounds (>= 1) of the method: round 0 holds the same
+    labels for every method.
     """
     d = one_dataset(df, dataset)
     curves = method_curves(d)
@@ -80,5 +87,23 @@ def summary(df: pd.DataFrame, dataset: str | None = None) -> dict:
         "synthetic_standin": bool(d["synthetic_standin"].any()),
         "n_seeds": int(d["seed"].nunique()),
         "precision": trained_at(d) or None,
+        "encoders": encoders_of(d),
         "methods": methods,
     }
+
+
+def encoders_of(d: pd.DataFrame) -> list[dict]:
+    """The encoders the records' runs read (embedding framework; [] elsewhere): each
+    one's seed, health and run seeds."""
+    if "encoder" not in d or not (d["encoder"] >= 0).any():
+        return []
+    out = []
+    for seed, part in d[d["encoder"] >= 0].groupby("encoder", sort=True):
+        out.append(
+            {
+                "seed": int(seed),
+                "health": str(part["encoder_health"].iloc[0] or "healthy"),
+                "run_seeds": sorted(int(s) for s in part["seed"].unique()),
+            }
+        )
+    return out

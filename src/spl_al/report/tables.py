@@ -38,7 +38,7 @@ from spl_al.report.display import (
     unique_ratio_labels,
 )
 from spl_al.report.records import LEVELS, one_dataset, round_for_budget
-from spl_al.report.stats import leader_test
+from spl_al.report.stats import leader_test, values_of
 
 ROUND0_MARK = " (round 0)"
 """Suffix of the budget table's round-0 column: before any query."""
@@ -132,9 +132,7 @@ def _leader_marks(frame: pd.DataFrame, d: pd.DataFrame, by: str) -> pd.Series:
             level = cell.get("level")
             value_col = f"level_{level}" if isinstance(level, str) else "value"
             at = d[(d["method"] == cell["method"]) & (d["round"] == cell["round"])]
-            parts.append(
-                pd.DataFrame({"method": cell["method"], "seed": at["seed"], "value": at[value_col]})
-            )
+            parts.append(values_of(at, value_col))
         result = leader_test(pd.concat(parts, ignore_index=True))
         if result is None:
             continue

@@ -1,11 +1,16 @@
-"""A self-supervised encoder of SPL images, learned without labels from their SIV views.
+"""A self-supervised encoder of SPL images, learned without labels.
 
-SimCLR's objective (Chen et al., ICML 2020) with the photon conditions as views: for
-each frame of a batch, two of its G = M + 1 images (the observed image and its SIV
-variants, ``spl_al.data.variants``) are drawn, each randomly shifted, and the encoder
-learns to tell the pair apart from every other frame's images. What the embedding is
-made invariant to is thus the photon condition the paper's method is about, plus a
-small translation.
+SimCLR's objective (Chen et al., ICML 2020): for each frame of a batch two views are
+made, and the encoder learns to tell the pair apart from every other frame's views.
+What the views are is the ``objective``:
+
+- ``siv``: two of the frame's G = M + 1 images (the observed image and its SIV
+  variants, ``spl_al.data.variants``), each randomly shifted. The embedding is made
+  invariant to the photon condition, which is what DUIS's inconsistency term reads:
+  an encoder of this kind leaves that term little to find.
+- ``generic``: two augmentations of the observed image alone (a random crop rescaled
+  to the frame, a shift, Gaussian noise on the depth channel, pixel dropout), no SIV
+  variant as a positive: the embedding keeps whatever the photon condition changes.
 
 NT-Xent over a batch of B frames, z the 2B unit-length projections, tau the
 temperature, p(i) the other view of i's frame::
@@ -37,7 +42,7 @@ from torch import nn
 
 from spl_al.models import model_input
 from spl_al.models.classifier import SmallCNN
-from spl_al.training.device import deterministic_algorithms, resolve_device
+from spl_al.training.device import deterministic_algorithms, ieee_fp32, resolve_device
 from spl_al.training.fit import ProgressLog, random_shift
 from spl_al.training.recipe import known_fields
 from spl_al.training.sgd import SGD
@@ -57,6 +62,12 @@ class EncoderConfig:
         lr, momentum, weight_decay: SGD's, cosine schedule with a 5% warm-up.
         temperature: tau of NT-Xent.
         shift: largest random translation of a view, as a fraction of each side.
+        objective: "siv" (a frame's SIV images are its positives) or "generic"
+            (augmentations of the observed image alone); module docstring.
+        crop: smallest side of a ``generic`` view's random crop, as a fraction.
+        noise: standard deviation of a ``generic`` view's Gaussian noise, in units of
+            the standardised depth channel.
+        pixel_dropout: share of a ``generic`` view's pixels made voids.
         seed: initialisation, batches, views and shifts.
     """
 
@@ -72,16 +83,31 @@ class EncoderConfig:
     weight_decay: float = 5e-4
     temperature: float = 0.2
     shift: float = 0.125
+    objective: str = "siv"
+    crop: float = 0.7
+    noise: float = 0.1
+    pixel_dropout: float = 0.1
     seed: int = 0
 
     @classmethod
     def from_dict(cls, values: dict | None) -> EncoderConfig:
-        """From config ``embedding.encoder``; an unknown key is a one-sentence ValueError."""
-        return cls(**known_fields(cls, values, "embedding.encoder: unknown keys"))
+        """From config ``embedding.encoder`` (without its plan keys ``seeds`` and
+        ``block``); an unknown key or objective is a one-sentence ValueError."""
+        cfg = cls(**known_fields(cls, values, "embedding.encoder: unknown keys"))
+        if cfg.objective not in OBJECTIVES:
+            raise ValueError(
+                f"embedding.encoder.objective must be one of {list(OBJECTIVES)}, "
+                f"got {cfg.objective!r}."
+            )
+        return cfg
 
     def as_dict(self) -> dict:
         """JSON-ready fields."""
         return asdict(self)
+
+
+OBJECTIVES = ("siv", "generic")
+"""What a view pair is: two SIV images of a frame, or two augmentations of its observed one."""
 
 
 class Encoder(nn.Module):
@@ -132,6 +158,33 @@ def _views(x_all: torch.Tensor, frames: torch.Tensor, gen: torch.Generator) -> t
     return torch.cat([x_all[frames, first.to(dev)], x_all[frames, other.to(dev)]])
 
 
+def _generic_views(
+    x_all: torch.Tensor, frames: torch.Tensor, gen: torch.Generator, cfg: EncoderConfig
+) -> torch.Tensor:
+    """Two augmentations of each frame's observed image: (2B, 2, H, W).
+
+    Each view: a random square-scaled crop (side ``cfg.crop``..1 of the frame's, at a
+    random place) resampled to the full frame by nearest neighbour (voids stay voids),
+    Gaussian noise of sd ``cfg.noise`` on the valid pixels' depth, and pixel dropout
+    (``cfg.pixel_dropout`` of the pixels set to voids: depth 0, validity 0).
+    """
+    x = x_all[frames, 0].repeat(2, 1, 1, 1)  # (2B, 2, H, W)
+    n = x.shape[0]
+    dev = x.device
+    scale = cfg.crop + (1 - cfg.crop) * torch.rand(n, generator=gen)
+    offset = (1 - scale)[:, None] * (2 * torch.rand(n, 2, generator=gen) - 1)
+    theta = torch.zeros(n, 2, 3)
+    theta[:, 0, 0] = theta[:, 1, 1] = scale
+    theta[:, :, 2] = offset
+    grid = F.affine_grid(theta.to(dev), list(x.shape), align_corners=False)
+    x = F.grid_sample(x, grid, mode="nearest", padding_mode="zeros", align_corners=False)
+    valid = x[:, 1:2]
+    noise = torch.randn(x[:, :1].shape, generator=gen).to(dev) * float(cfg.noise)
+    keep = (torch.rand(valid.shape, generator=gen) >= float(cfg.pixel_dropout)).to(dev)
+    valid = valid * keep
+    return torch.cat([(x[:, :1] + noise) * valid, valid], dim=1)
+
+
 def train_encoder(
     depth_m,
     valid,
@@ -164,6 +217,7 @@ def train_encoder(
     if n < 2:
         raise ValueError(f"the encoder needs at least 2 frames to contrast, got {n}.")
     dev = resolve_device(device)
+    ieee_fp32()
     started = time.perf_counter()
     gen = torch.Generator().manual_seed(int(cfg.seed))
     with torch.random.fork_rng(devices=[]):
@@ -171,48 +225,153 @@ def train_encoder(
         encoder = Encoder(cfg)
     x = model_input(encoder, depth_m.reshape(-1, h, w), np.asarray(valid).reshape(-1, h, w))
     x_all = x.view(n, g, *x.shape[1:]).to(dev)  # (N, G, 2, H, W)
-    encoder.to(dev).train()
-    opt = SGD(encoder.parameters(), lr=cfg.lr, momentum=cfg.momentum, weight_decay=cfg.weight_decay)
+    # channels-last: oneDNN's convolutions run ~20% faster on it (docs/benchmarks.md)
+    encoder.to(dev, memory_format=torch.channels_last).train()
     batch = min(int(cfg.batch_size), n)
-    max_px = (max(0, round(cfg.shift * h)), max(0, round(cfg.shift * w)))
     progress = ProgressLog(log)
     progress.line(
         f"encoder: {n} frames x {g} images {(h, w)}, {cfg.steps} steps of {batch} frames "
-        f"(2 views each), embedding {encoder.embedding_dim}, device {dev}, fp32, seed {cfg.seed}"
+        f"(2 views each, {cfg.objective} objective), embedding {encoder.embedding_dim}, "
+        f"device {dev}, fp32, seed {cfg.seed}"
     )
-    order = torch.randperm(n, generator=gen)
-    at = 0
-    loss_value = float("nan")
     try:
-        with deterministic_algorithms():
-            for step in range(int(cfg.steps)):
-                if at + batch > n:
-                    order, at = torch.randperm(n, generator=gen), 0
-                frames = order[at : at + batch].to(dev)
-                at += batch
-                views = _views(x_all, frames, gen)
-                views, _ = random_shift(views, None, max_px, gen)
-                lr = opt.param_groups[0]["lr"] = learning_rate(cfg, step)
-                loss = nt_xent(encoder.project(encoder(views)), cfg.temperature)
-                opt.zero_grad()
-                loss.backward()
-                opt.step()
-                if step % 50 == 0 or step == cfg.steps - 1:
-                    loss_value = float(loss.detach())
-                    progress.line(f"step {step + 1}/{cfg.steps} loss {loss_value:.4f} lr {lr:.4f}")
+        final_loss = _fit(encoder, x_all, cfg, gen=gen, batch=batch, progress=progress)
     finally:
         progress.close()
-    encoder.eval().cpu()
+    encoder.eval().to("cpu", memory_format=torch.contiguous_format)
     record = {
         "steps": int(cfg.steps),
         "frames_per_step": batch,
         "images_per_step": 2 * batch,
-        "final_loss": round(loss_value, 6),
+        "final_loss": round(final_loss, 6),
+        "chance_loss": round(chance_loss(batch), 6),
         "train_seconds": round(time.perf_counter() - started, 3),
         "embedding_dim": int(encoder.embedding_dim),
         "flops_per_step": encoder_flops(encoder, (h, w)) * 2 * batch * 3,
+        "trained_with": {
+            "torch": torch.__version__,
+            "device": device_name(dev),
+            "threads": torch.get_num_threads(),
+            "precision": "fp32",
+        },
     }
     return encoder, record
+
+
+def _fit(encoder: Encoder, x_all: torch.Tensor, cfg: EncoderConfig, *, gen, batch, progress):
+    """SGD on NT-Xent over ``cfg.steps`` batches of ``batch`` frames of ``x_all`` (N, G,
+    2, H, W); returns the final loss, the mean over the last 10% of steps (one batch's
+    loss is noisy)."""
+    n, _, _, h, w = x_all.shape
+    dev = x_all.device
+    opt = SGD(encoder.parameters(), lr=cfg.lr, momentum=cfg.momentum, weight_decay=cfg.weight_decay)
+    max_px = (max(0, round(cfg.shift * h)), max(0, round(cfg.shift * w)))
+    order = torch.randperm(n, generator=gen)
+    at = 0
+    steps = int(cfg.steps)
+    tail_from = steps - max(1, steps // 10)
+    tail = torch.zeros((), device=dev)
+    with deterministic_algorithms():
+        for step in range(steps):
+            if at + batch > n:
+                order, at = torch.randperm(n, generator=gen), 0
+            frames = order[at : at + batch].to(dev)
+            at += batch
+            if cfg.objective == "generic":
+                views = _generic_views(x_all, frames, gen, cfg)
+            else:
+                views = _views(x_all, frames, gen)
+            views, _ = random_shift(views, None, max_px, gen)
+            views = views.contiguous(memory_format=torch.channels_last)
+            lr = opt.param_groups[0]["lr"] = learning_rate(cfg, step)
+            loss = nt_xent(encoder.project(encoder(views)), cfg.temperature)
+            opt.zero_grad()
+            loss.backward()
+            opt.step()
+            if step >= tail_from:
+                tail += loss.detach()
+            if step % 50 == 0 or step == steps - 1:
+                progress.line(
+                    f"step {step + 1}/{steps} loss {float(loss.detach()):.4f} lr {lr:.4f}"
+                )
+    return float(tail) / (steps - tail_from)
+
+
+def chance_loss(frames: int) -> float:
+    """NT-Xent of an encoder that tells nothing apart: ln(2B - 1) for B frames a batch
+    (each view's softmax spreads evenly over the 2B - 1 others)."""
+    return math.log(max(2 * int(frames) - 1, 2))
+
+
+def device_name(dev: torch.device) -> str:
+    """The CPU model or GPU name an encoder trained on (its card records it)."""
+    if dev.type == "cuda":
+        return torch.cuda.get_device_name(dev)
+    import platform
+
+    try:
+        with open("/proc/cpuinfo") as f:
+            for line in f:
+                if line.startswith("model name"):
+                    return line.split(":", 1)[1].strip()
+    except OSError:
+        pass
+    return platform.processor() or platform.machine()
+
+
+# An encoder's health, read without a label (docs/method.md, "Encoders that fail").
+COLLAPSED_LOSS = 0.95
+DOUBTFUL_LOSS = 0.70
+COLLAPSED_RANK = 2.0
+DOUBTFUL_RANK = 8.0
+
+
+def effective_rank(embeddings) -> float:
+    """Effective rank (Roy and Vetterli 2007) of (n, d) embeddings: exp of the entropy
+    of their centred singular values normalised to sum 1, between 1 (every sample on
+    one line: a collapsed encoder) and min(n, d)."""
+    x = np.asarray(embeddings, dtype=np.float64)
+    x = x - x.mean(axis=0)
+    sv = np.linalg.svd(x, compute_uv=False)
+    if sv.sum() <= 0:
+        return 1.0
+    p = sv / sv.sum()
+    p = p[p > 0]
+    return float(np.exp(-(p * np.log(p)).sum()))
+
+
+def encoder_health(record: dict, embeddings) -> dict:
+    """Label-free figures of a trained encoder and their verdict.
+
+    ``record``: ``train_encoder``'s (its ``final_loss`` and ``chance_loss``);
+    ``embeddings``: (n, d) of the training frames' observed images. Returns
+    ``loss_ratio`` (final loss / chance), ``effective_rank`` and ``verdict``:
+    "collapsed" when the loss ratio is at least ``COLLAPSED_LOSS`` or the effective
+    rank below ``COLLAPSED_RANK``, "doubtful" at ``DOUBTFUL_LOSS`` / ``DOUBTFUL_RANK``,
+    else "healthy", with ``failed``: the figures that set it.
+    """
+    ratio = float(record["final_loss"]) / float(record["chance_loss"])
+    rank = effective_rank(embeddings)
+    failed = []
+    verdict = "healthy"
+    for name, level in (
+        ("collapsed", (COLLAPSED_LOSS, COLLAPSED_RANK)),
+        ("doubtful", (DOUBTFUL_LOSS, DOUBTFUL_RANK)),
+    ):
+        reasons = []
+        if ratio >= level[0]:
+            reasons.append(f"final loss {ratio:.2f} of chance (at least {level[0]:.2f})")
+        if rank < level[1]:
+            reasons.append(f"effective rank {rank:.1f} (below {level[1]:g})")
+        if reasons:
+            verdict, failed = name, reasons
+            break
+    return {
+        "loss_ratio": round(ratio, 4),
+        "effective_rank": round(rank, 2),
+        "verdict": verdict,
+        "failed": failed,
+    }
 
 
 def learning_rate(cfg: EncoderConfig, step: int) -> float:
@@ -246,13 +405,14 @@ def encoder_flops(encoder: Encoder, image_shape) -> int:
 def embed(encoder: Encoder, depth_m, valid, *, device=None, batch_size: int = 512) -> np.ndarray:
     """fp32 embeddings (n, d) of (n, H, W) images, whatever precision is configured."""
     dev = resolve_device(device)
-    encoder.to(dev).eval()
+    encoder.to(dev, memory_format=torch.channels_last).eval()
     depth_m = np.asarray(depth_m)
     out = []
     for s in range(0, len(depth_m), batch_size):
         x = model_input(encoder, depth_m[s : s + batch_size], np.asarray(valid[s : s + batch_size]))
-        out.append(encoder(x.to(dev)).float().cpu().numpy())
-    encoder.cpu()
+        x = x.to(dev).contiguous(memory_format=torch.channels_last)
+        out.append(encoder(x).float().cpu().numpy())
+    encoder.to("cpu", memory_format=torch.contiguous_format)
     if not out:
         return np.zeros((0, encoder.embedding_dim), dtype=np.float32)
     return np.concatenate(out).astype(np.float32)

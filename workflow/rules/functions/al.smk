@@ -113,5 +113,7 @@ def selection_embeddings(wildcards):
     """The train job's embeddings, when its method selects on them."""
     if METHODS[wildcards.method].features != "embedding":
         return {}
-    # (made by the encoder rule, workflow/rules/embedding.smk)
-    return {"embeddings": f"{RESULTS}/{wildcards.dataset}/embedding/embeddings.npz"}
+    # (made by the encoder rule, workflow/rules/embedding.smk): the run seed's own
+    entry = config["datasets"][wildcards.dataset]
+    eseed = encoder_of(entry, int(wildcards.seed))
+    return {"embeddings": encoder_file(wildcards.dataset, eseed, "embeddings.npz")}

@@ -1,5 +1,8 @@
 # Input functions of workflow/rules/embedding.smk: the embedding framework.
 
+from spl_al.experiment.encoders import encoder_of, encoder_recipe, encoder_seeds
+from spl_al.report.claims import encoder_claim_notes
+
 
 # Datasets with an encoder: an embedding framework, or a method selecting on it.
 EMBEDDED = [
@@ -12,6 +15,26 @@ EMBEDDING = f"{RESULTS}/{{dataset}}/embedding"
 
 def embedding_entry(dataset):
     return config["datasets"][dataset].get("embedding") or {}
+
+
+def encoder_file(dataset, eseed, name):
+    """One of encoder ``eseed``'s files: encoder.pt, card.json or embeddings.npz."""
+    return f"{RESULTS}/{dataset}/embedding/encoders/seed{eseed}/{name}"
+
+
+def run_encoders(wildcards):
+    """Run seed -> encoder seed of one method's runs."""
+    entry = config["datasets"][wildcards.dataset]
+    return {s: encoder_of(entry, s) for s in probe_run_params(wildcards)["seeds"]}
+
+
+def probe_runs_encoders(wildcards):
+    """The embeddings and cards of the encoders one method's runs read."""
+    eseeds = sorted(set(run_encoders(wildcards).values()))
+    return {
+        "embeddings": [encoder_file(wildcards.dataset, e, "embeddings.npz") for e in eseeds],
+        "cards": [encoder_file(wildcards.dataset, e, "card.json") for e in eseeds],
+    }
 
 
 def probe_runs_files(dataset, methods=None):
@@ -40,7 +63,11 @@ def embedding_outputs(dataset):
     base = f"{RESULTS}/{dataset}/embedding"
     kinds = table_names(exps, has_levels=has_levels(dataset))
     out = [f"{base}/tables/{t}.{ext}" for t in kinds for ext in ("csv", "md", "tex")]
-    out += [f"{base}/tables/summary.json", f"{base}/encoder.card.json"]
+    out += [f"{base}/tables/summary.json"]
+    out += [
+        encoder_file(dataset, e, "card.json")
+        for e in encoder_seeds(config["datasets"][dataset])
+    ]
     if "budget" in exps:
         out += [f"{base}/figures/curves.{ext}" for ext in ("png", "pdf")]
         out += [f"{base}/figures/aubc.{ext}" for ext in ("png", "pdf")]

@@ -1,0 +1,93 @@
+"""Which self-supervised encoders a dataset trains, and which one each run seed reads.
+
+A dataset's ``embedding.encoder`` block holds the recipe (``spl_al.training.contrastive
+.EncoderConfig``) and two plan keys: ``seeds``, the encoder seeds (one encoder each, one
+Snakemake job each), and ``block``, the run seeds per encoder. Run seed s reads encoder
+number (s - 1) // block, so adding run seeds or encoders never moves a run already made
+to another encoder. With one encoder (``seeds`` of one, or the recipe's ``seed`` alone)
+every run seed reads it.
+
+The encoder is a random draw a rerun makes again, like a run seed: the embedding
+framework's statistics average the runs within each encoder and count encoders
+(``spl_al.report.stats``, a cluster design).
+"""
+
+from __future__ import annotations
+
+PLAN_KEYS = ("seeds", "block")
+"""Keys of ``embedding.encoder`` that plan encoders rather than describe one."""
+
+
+def _block(entry: dict) -> dict:
+    return dict((entry.get("embedding") or {}).get("encoder") or {})
+
+
+def encoder_recipe(entry: dict) -> dict:
+    """The recipe every encoder of the dataset shares (``embedding.encoder`` without its
+    plan keys and seed)."""
+    return {k: v for k, v in _block(entry).items() if k not in (*PLAN_KEYS, "seed")}
+
+
+def encoder_seeds(entry: dict) -> list[int]:
+    """The dataset's encoder seeds, in order: ``seeds``, else ``[seed]`` (default 0)."""
+    block = _block(entry)
+    if "seeds" in block:
+        return [int(s) for s in block["seeds"]]
+    return [int(block.get("seed", 0))]
+
+
+def encoder_of(entry: dict, run_seed: int) -> int:
+    """The seed of the encoder run seed ``run_seed`` reads: number (s - 1) // block of
+    ``encoder_seeds``, or the one encoder."""
+    seeds = encoder_seeds(entry)
+    if len(seeds) == 1:
+        return seeds[0]
+    return seeds[(int(run_seed) - 1) // int(_block(entry)["block"])]
+
+
+def check_encoders(dataset: str, entry: dict, run_seeds, embedding_seeds) -> None:
+    """A ValueError, one sentence naming the key, unless the encoder plan is sound.
+
+    ``run_seeds``: every run seed that reads an encoder (both frameworks);
+    ``embedding_seeds``: the embedding framework's run seeds. Refused: ``seed`` and
+    ``seeds`` together, an encoder seed listed twice, several encoders without
+    ``block``, more encoders than the embedding framework has run seeds, and a run seed
+    whose block has no encoder.
+    """
+    block = _block(entry)
+    key = f"datasets.{dataset}.embedding.encoder"
+    if "seeds" in block and "seed" in block:
+        raise ValueError(
+            f"config key '{key}' sets both 'seed' and 'seeds'; keep 'seeds' (the encoders) "
+            "and drop 'seed'."
+        )
+    seeds = encoder_seeds(entry)
+    twice = sorted({s for s in seeds if seeds.count(s) > 1})
+    if twice:
+        raise ValueError(
+            f"config key '{key}.seeds' lists encoder seed {twice[0]} more than once; each "
+            "encoder needs a seed of its own."
+        )
+    if len(seeds) == 1:
+        return
+    if "block" not in block:
+        raise ValueError(
+            f"config key '{key}.block' is missing: with {len(seeds)} encoders it says how many "
+            "run seeds read each one (run seed s reads encoder number (s - 1) // block)."
+        )
+    embedding_seeds = sorted(set(embedding_seeds))
+    if embedding_seeds and len(seeds) > len(embedding_seeds):
+        raise ValueError(
+            f"config key '{key}.seeds' lists {len(seeds)} encoders, more than the "
+            f"{len(embedding_seeds)} run seeds of the embedding experiments; an encoder "
+            "no run reads is wasted, so list at most one encoder per run seed."
+        )
+    b = int(block["block"])
+    for s in sorted(set(run_seeds)):
+        number = (int(s) - 1) // b
+        if not 0 <= number < len(seeds):
+            raise ValueError(
+                f"config key '{key}.seeds' lists {len(seeds)} encoders, but run seed {s} reads "
+                f"encoder number {number} (run seed s reads number (s - 1) // block, block "
+                f"{b}); use run seeds 1 to {b * len(seeds)} or add encoder seeds."
+            )
