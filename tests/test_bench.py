@@ -238,3 +238,49 @@ def test_the_estimate_names_a_config_file_that_does_not_exist(tmp_path, capsys):
         bench_main.main(["estimate", "--configfile", str(tmp_path / "mine.yaml")])
     assert stop.value.code == 2
     assert "mine.yaml: no such file" in capsys.readouterr().err
+
+
+def _draw(root: Path, verdict: str, diffs: dict) -> Path:
+    """A results folder whose real_cls embedding tables hold one claim and the AUBC
+    comparisons ``diffs`` ((a, b) -> (diff, direction))."""
+    import pandas as pd
+
+    tables = root / "real_cls" / "embedding" / "tables"
+    tables.mkdir(parents=True)
+    pd.DataFrame([{"claim_id": "duis_best", "verdict": verdict}]).to_csv(tables / "claims.csv")
+    rows = [
+        {"experiment": "budget", "point": "AUBC", "parameter": "", "method_a": a,
+         "method_b": b, "diff": d, "resolved": bool(direction), "direction": direction}
+        for (a, b), (d, direction) in diffs.items()
+    ]  # fmt: skip
+    pd.DataFrame(rows).to_csv(tables / "comparisons.csv", index=False)
+    return root
+
+
+def test_the_draws_bench_names_a_reversed_claim_and_comparison(tmp_path, capsys):
+    from spl_al.bench import draws
+
+    a = _draw(
+        tmp_path / "a",
+        "supported",
+        {("duis", "random"): (2.0, 1), ("syn_maxherding", "duis"): (9.0, 1)},
+    )
+    b = _draw(
+        tmp_path / "b",
+        "inconclusive",
+        {("duis", "random"): (0.5, 0), ("syn_maxherding", "duis"): (8.0, 1)},
+    )
+    assert draws.main([str(a), str(b), "--datasets", "real_cls"]) == 0
+    out = capsys.readouterr().out
+    assert "| comparisons resolved | 2 | 1 |" in out and "1 / 1 / 0" in out
+    assert "+9.0 (resolved)" in out and "1.50" in out  # the median shift of 1.5 and 1.0
+    c = _draw(
+        tmp_path / "c",
+        "contradicted",
+        {("duis", "random"): (-2.0, -1), ("syn_maxherding", "duis"): (9.0, 1)},
+    )
+    assert draws.main([str(a), str(c), "--datasets", "real_cls"]) == 1
+    out = capsys.readouterr().out
+    assert "duis_best" in out and "Opposite: budget AUBC duis - random" in out
+    with pytest.raises(SystemExit, match="embedding framework has run"):
+        draws.main([str(a), str(tmp_path / "none"), "--datasets", "real_cls"])

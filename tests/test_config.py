@@ -454,3 +454,22 @@ def test_a_folder_without_path_or_standin_is_refused_before_any_job():
     assert not is_standin(config["datasets"]["real_cls"])
     with pytest.raises(ValueError, match=r"'datasets\.real_cls\.path': dataset source is 'f"):
         check_plan(config)
+
+
+def test_the_second_draw_config_changes_the_encoder_seeds_alone():
+    """config/encoders-draw2.yaml: 12 encoders disjoint from the default's, the same
+    everything else (so `python -m spl_al.bench draws` compares like with like)."""
+    from spl_al.experiment.encoders import encoder_seeds
+    from spl_al.experiment.plan import check_plan
+
+    default, draw2 = _merged(), _merged("encoders-draw2.yaml")
+    check_plan(draw2)
+    for name in ("real_cls", "synth_cls"):
+        first = encoder_seeds(default["datasets"][name])
+        second = encoder_seeds(draw2["datasets"][name])
+        assert len(second) == len(first) == 12 and not set(first) & set(second)
+        for config in (default, draw2):
+            config["datasets"][name]["embedding"]["encoder"].pop("seeds")
+    assert draw2.pop("results") == "results/draw2"
+    default.pop("results")
+    assert draw2 == default

@@ -30,6 +30,7 @@ from __future__ import annotations
 import argparse
 import json
 import math
+import os
 import tempfile
 import time
 from pathlib import Path
@@ -104,7 +105,7 @@ def run_recipe(
     out = []
     for seed in encoders:
         cfg = EncoderConfig.from_dict({**recipe, "seed": int(seed)})
-        encoder, record = train_encoder(depth, valid, cfg=cfg, log=_Quiet())
+        encoder, record = train_encoder(depth, valid, cfg=cfg, log=os.devnull)
         emb = embed(encoder, depth_all.reshape(n * g, h, w), valid_all.reshape(n * g, h, w))
         emb = emb.reshape(n, g, -1)
         health = encoder_health(record, emb[fit_idx, 0])
@@ -217,14 +218,6 @@ def render(name: str, results: dict[str, list[dict]], baseline: str) -> str:
         )
         text += markdown_table(header, rows)
     return text
-
-
-class _Quiet:
-    def write(self, _text: str) -> None:
-        pass
-
-    def flush(self) -> None:
-        pass
 
 
 def _parser() -> argparse.ArgumentParser:

@@ -273,12 +273,14 @@ def embedding_seconds(config: dict, dataset: str, *, steps: int = 5) -> dict:
     and Random on random embeddings of the pool's size, times the rounds planned), and
     its job count."""
     # torch and pandas on demand (importing this module does not load them)
+    from dataclasses import replace
+
+    import numpy as np
     import torch
 
     from spl_al.experiment.encoders import encoder_recipe, encoder_seeds
     from spl_al.experiment.plan import dataset_runs, labeled_at
-    from spl_al.training.contrastive import Encoder, EncoderConfig, nt_xent
-    from spl_al.training.sgd import SGD
+    from spl_al.training.contrastive import Encoder, EncoderConfig, train_encoder
 
     entry = config["datasets"][dataset]
     embedding = entry.get("embedding")
@@ -289,21 +291,19 @@ def embedding_seconds(config: dict, dataset: str, *, steps: int = 5) -> dict:
     n_pool, n_test, _ = split_sizes(entry)
     m = int(entry["variants"]["n"])
     shape = tuple((entry.get("synthesis") or {}).get("image_shape") or (64, 64))
-    torch.manual_seed(0)
-    # as train_encoder runs it: channels-last
-    encoder = Encoder(cfg).to(memory_format=torch.channels_last)
     batch = min(cfg.batch_size, n_pool)
-    x = torch.randn(2 * batch, 2, *shape).contiguous(memory_format=torch.channels_last)
-    opt = SGD(encoder.parameters(), lr=0.01)
-    loss = nt_xent(encoder.project(encoder(x)), cfg.temperature)  # warm-up, untimed
-    loss.backward()
-    started = time.perf_counter()
-    for _ in range(steps):
-        loss = nt_xent(encoder.project(encoder(x)), cfg.temperature)
-        opt.zero_grad()
-        loss.backward()
-        opt.step()
-    step_s = (time.perf_counter() - started) / steps
+    # what the encoder job runs (views, shifts, channels-last, deterministic kernels),
+    # on random frames: 1 step to warm up, then ``steps`` timed from the difference
+    rng = np.random.default_rng(0)
+    depth = rng.uniform(5, 50, size=(batch, 1 + m, *shape)).astype(np.float32)
+    valid = np.ones(depth.shape, dtype=bool)
+    seconds = [
+        train_encoder(depth, valid, cfg=replace(cfg, steps=k), log=os.devnull)[1]["train_seconds"]
+        for k in (1, 1 + steps)
+    ]
+    step_s = max(seconds[1] - seconds[0], 0.0) / steps
+    encoder = Encoder(cfg)
+    x = torch.randn(2 * batch, 2, *shape)
     with torch.no_grad():
         started = time.perf_counter()
         encoder(x)

@@ -24,6 +24,7 @@ framework (synthesised as the pipeline makes them, cached).
 from __future__ import annotations
 
 import argparse
+import os
 import tempfile
 import time
 from pathlib import Path
@@ -193,7 +194,7 @@ def compare_segmentation(dataset, entry: dict, *, seeds=SEEDS, log=print):
     fit_idx, held_out = tuning_split(dataset)
     cfg = EncoderConfig.from_dict((entry.get("embedding") or {}).get("encoder"))
     depth, valid = dataset.groups(fit_idx)
-    encoder, record = train_encoder(depth, valid, cfg=cfg, log=_Quiet())
+    encoder, record = train_encoder(depth, valid, cfg=cfg, log=os.devnull)
     dense = dense_embeddings(encoder, dataset.depth_m, dataset.valid)
     log(f"  encoder: {record['train_seconds']:.0f} s; dense features {dense.shape[-1]}")
     rounds = entry["experiments"]["budget"]["rounds"]
@@ -215,14 +216,6 @@ def compare_segmentation(dataset, entry: dict, *, seeds=SEEDS, log=print):
         log(f"  n={n}: " + ", ".join(f"{k} {np.mean(v):.3f}" for k, v in row.items() if k != "n"))
         rows.append(row)
     return rows, record
-
-
-class _Quiet:
-    def write(self, _text: str) -> None:
-        pass
-
-    def flush(self) -> None:
-        pass
 
 
 def _cell(values) -> str:

@@ -268,6 +268,13 @@ def verdict_line(rows: list[dict]) -> str:
 
 
 def _seeds(summary: dict, budget: list[dict]) -> str:
+    """"3 seeds", or "12 encoders x 10 seeds" where the runs read several encoders
+    (``summary.json``'s ``encoders``: the statistics' units)."""
+    encoders = summary.get("encoders") or []
+    if len(encoders) > 1:
+        per = sorted({len(e.get("run_seeds") or []) for e in encoders})
+        each = str(per[0]) if len(per) == 1 else f"{per[0]}-{per[-1]}"
+        return f"{len(encoders)} encoders x {each} seeds"
     n = summary.get("n_seeds")
     if n is None and budget:
         n = max(int(_num(r.get("n_seeds")) or 0) for r in budget)

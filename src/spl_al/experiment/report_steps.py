@@ -35,7 +35,7 @@ def encoder_notes(df) -> list[str]:
     seeds = f"{per.iloc[0]}" if per.nunique() == 1 else f"{per.min()}-{per.max()}"
     k = len(per)
     notes = [
-        f"{k} encoder{'s' if k > 1 else ''} x {seeds} seeds "
+        f"{k} encoder{'s' if k > 1 else ''} (seed {_ranges(per.index)}) x {seeds} seeds "
         f"(intervals and tests over the encoders' means)"
     ]
     doubtful = sorted(known.loc[known["encoder_health"] == "doubtful", "encoder"].unique())
@@ -46,6 +46,17 @@ def encoder_notes(df) -> list[str]:
             "collapse, docs/method.md"
         )
     return notes
+
+
+def _ranges(values) -> str:
+    """'0-11', '0-3, 7, 9-10' of sorted integers."""
+    values = sorted(int(v) for v in values)
+    parts, start = [], values[0]
+    for prev, cur in zip(values, [*values[1:], None], strict=True):
+        if cur is None or cur != prev + 1:
+            parts.append(f"{start}-{prev}" if prev > start else str(start))
+            start = cur
+    return ", ".join(parts)
 
 
 def make_table(
