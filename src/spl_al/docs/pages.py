@@ -268,8 +268,8 @@ def verdict_line(rows: list[dict]) -> str:
 
 
 def _seeds(summary: dict, budget: list[dict]) -> str:
-    """"3 seeds", or "12 encoders x 10 seeds" where the runs read several encoders
-    (``summary.json``'s ``encoders``: the statistics' units)."""
+    """The runs' units in words: '3 seeds', or '12 encoders x 10 seeds' where the runs
+    read several encoders (``summary.json``'s ``encoders``: the statistics' units)."""
     encoders = summary.get("encoders") or []
     if len(encoders) > 1:
         per = sorted({len(e.get("run_seeds") or []) for e in encoders})
