@@ -3,7 +3,6 @@
 from spl_al.experiment.encoders import encoder_of, encoder_recipe, encoder_seeds
 from spl_al.report.claims import encoder_claim_notes
 
-
 # Datasets with an encoder: an embedding framework, or a method selecting on it.
 EMBEDDED = [
     d
@@ -32,7 +31,9 @@ def probe_runs_encoders(wildcards):
     """The embeddings and cards of the encoders one method's runs read."""
     eseeds = sorted(set(run_encoders(wildcards).values()))
     return {
-        "embeddings": [encoder_file(wildcards.dataset, e, "embeddings.npz") for e in eseeds],
+        "embeddings": [
+            encoder_file(wildcards.dataset, e, "embeddings.npz") for e in eseeds
+        ],
         "cards": [encoder_file(wildcards.dataset, e, "card.json") for e in eseeds],
     }
 

@@ -22,7 +22,9 @@ def dataset_outputs(dataset):
     tables = f"{RESULTS}/{dataset}/tables"
     figures = f"{RESULTS}/{dataset}/figures"
     out = [f"{figures}/contact_sheet.png", f"{figures}/variants_sheet.png"]
-    if runs(dataset):  # a dataset in the embedding framework alone has no supervised run
+    if runs(
+        dataset
+    ):  # a dataset in the embedding framework alone has no supervised run
         out.append(f"{tables}/summary.json")
     for table in dataset_tables(dataset):
         out += [f"{tables}/{table}.{ext}" for ext in ("csv", "md", "tex")]
