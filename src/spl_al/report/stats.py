@@ -445,15 +445,14 @@ def seed_matrix(values: pd.DataFrame, methods) -> pd.DataFrame:
     return wide.reindex(columns=list(methods))
 
 
-def _variance_parts(values: pd.DataFrame, a: str, b: str) -> dict:
-    """Seeds behind the units of A - B, and (clustered) the variance of the difference
-    between the encoders' means and within an encoder (pooled over the encoders)."""
-    wide = values.pivot_table(index="seed", columns="method", values="value", aggfunc="first")
-    d = (wide[a] - wide[b]).dropna()
+def _variance_parts(by_seed: pd.DataFrame, encoder: pd.Series | None, a: str, b: str) -> dict:
+    """Seeds behind the units of A - B, and (``encoder``: seed -> encoder, clustered)
+    the variance of the difference between the encoders' means and within an encoder
+    (pooled over the encoders). ``by_seed``: seeds x methods."""
+    d = (by_seed[a] - by_seed[b]).dropna()
     out = {"n_seeds": int(d.size), "var_between": math.nan, "var_within": math.nan}
-    if clustered(values) and d.size:
-        encoder = values.groupby("seed")["encoder"].first().reindex(d.index)
-        by = d.groupby(encoder)
+    if encoder is not None and d.size:
+        by = d.groupby(encoder.reindex(d.index))
         if by.ngroups > 1:
             out["var_between"] = float(by.mean().var(ddof=1))
         within = by.var(ddof=1).dropna()
@@ -480,13 +479,16 @@ def pairwise(values: pd.DataFrame, methods, level: float = LEVEL) -> pd.DataFram
         d = wide[a].to_numpy(float) - wide[b].to_numpy(float)
         diffs.append(d[np.isfinite(d)])
     ps = sign_flip_ps(diffs)  # beyond 40 units, one pass of draws for every pair
+    # the seed-level matrix once for every pair's variance parts
+    by_seed = values.pivot_table(index="seed", columns="method", values="value", aggfunc="first")
+    encoder = values.groupby("seed")["encoder"].first() if unit == "encoder" else None
     rows = [
         {
             "method_a": a,
             "method_b": b,
             **paired_test(wide[a], wide[b], level, p=p),
             "unit": unit,
-            **_variance_parts(values, a, b),
+            **_variance_parts(by_seed, encoder, a, b),
         }
         for (a, b), p in zip(pairs, ps, strict=True)
     ]
