@@ -347,6 +347,27 @@ def test_geometric_augmentations_move_masks_with_their_pixels(augment):
     assert not torch.equal(y2, y)
 
 
+def test_random_shift_translates_each_image_by_its_own_offset():
+    """out[b, :, r, c] = x[b, :, r - dy_b, c - dx_b], voids (0, IGNORE_INDEX) shifted in;
+    the offsets are the generator's, so a seed gives the same batch on any device."""
+    x = torch.randn(64, 2, 5, 7)
+    y = torch.randint(0, 5, (64, 5, 7))
+    max_px = (6, 8)  # larger than the frame: some images leave it entirely
+    out, y_out = random_shift(x, y, max_px, torch.Generator().manual_seed(3))
+    gen = torch.Generator().manual_seed(3)
+    dy = torch.randint(-6, 7, (64,), generator=gen)
+    dx = torch.randint(-8, 9, (64,), generator=gen)
+    for b in range(64):
+        for r in range(5):
+            for c in range(7):
+                sr, sc = r - int(dy[b]), c - int(dx[b])
+                inside = 0 <= sr < 5 and 0 <= sc < 7
+                want = x[b, :, sr, sc] if inside else torch.zeros(2)
+                assert torch.equal(out[b, :, r, c], want)
+                assert int(y_out[b, r, c]) == (int(y[b, sr, sc]) if inside else IGNORE_INDEX)
+    assert (out == 0).all(dim=(1, 2, 3)).any()  # an image shifted out of the frame
+
+
 def test_column_crops_keep_each_pixel_with_its_label_and_vary_per_image():
     gen = torch.Generator().manual_seed(0)
     y = torch.randint(0, 5, (16, 6, 40))
