@@ -294,6 +294,9 @@ def test_an_encoder_card_records_where_it_trained_and_its_health(tmp_path):
     trained = card["trained_with"]
     assert trained["precision"] == "fp32" and trained["device"] and trained["threads"] >= 1
     assert trained["torch"].split(".")[0].isdigit()
+    import torch
+
+    assert trained["cpu_capability"] == torch.backends.cpu.get_cpu_capability()
     health = card["health"]
     assert set(health) == {"loss_ratio", "effective_rank", "verdict", "failed"}
     assert health["loss_ratio"] == pytest.approx(card["final_loss"] / card["chance_loss"], 1e-3)
