@@ -374,3 +374,22 @@ def test_run_seeds_read_their_block_s_encoder(tmp_path):
         ValueError, match="trained with seed 5, but these run seeds read encoder seed 3"
     ):
         probe_runs(path, swapped, runs=spec, out_path=tmp_path / "s.json")
+
+
+def test_each_round_records_what_the_strategy_decided():
+    """ProbCover's radius, purity and coverage and TypiClust's clusters reach every
+    query's record; the embedding is fixed, so ProbCover's radius is one per run."""
+    from spl_al.experiment.embedding_steps import _run
+    from spl_al.experiment.plan import MethodSpec
+
+    facts = _facts(np.random.default_rng(1), np.random.default_rng(0).integers(0, 4, 60))
+    al = {"initial": 10, "batch": 5}
+    spec = MethodSpec(name="probcover", strategy="probcover", params={"n_classes": 4})
+    records = _run(facts, spec, which=("toy", 1), al=al, rounds=4, c=1.0, n_variants=2)
+    decided = [r["query_decision"] for r in records[:-1]]
+    assert len(decided) == 3 and "query_decision" not in records[-1]  # no query after
+    assert len({d["delta"] for d in decided}) == 1 and all(d["purity"] >= 0.95 for d in decided)
+    assert all(d["coverage_before"] <= d["coverage_after"] for d in decided)
+    spec = MethodSpec(name="typiclust", strategy="typiclust")
+    records = _run(facts, spec, which=("toy", 1), al=al, rounds=2, c=1.0, n_variants=2)
+    assert records[0]["query_decision"]["clusters"] == 15  # 10 labeled + a batch of 5

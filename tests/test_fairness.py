@@ -70,8 +70,13 @@ def test_without_matched_no_twin_is_run():
 def test_default_config_runs_the_matched_family_and_the_decomposition():
     root = Path(__file__).resolve().parents[1]
     config = yaml.safe_load((root / "config" / "config.yaml").read_text())
-    for dataset in ("real_cls", "synth_cls"):
-        budget = experiments_of(config, dataset)["budget"]
+    # the supervised framework on real_cls; the embedding framework on both datasets
+    for dataset, framework in (
+        ("real_cls", "supervised"),
+        ("real_cls", "embedding"),
+        ("synth_cls", "embedding"),
+    ):
+        budget = experiments_of(config, dataset, framework=framework)["budget"]
         assert set(METHODS) <= set(budget["methods"]), dataset
         assert {f"syn_{m}" for m in budget["families"]["paper"] if m != "duis"} <= set(
             budget["families"]["matched"]

@@ -80,6 +80,8 @@ def _dataset(tmp_path):
         ({"strategy": "margin"}, 0),
         ({"strategy": "coreset"}, 0),
         ({"strategy": "badge"}, 0),
+        ({"strategy": "dropquery"}, 0),
+        ({"strategy": "typiclust", "use_variants": True}, 2),
         ({"strategy": "duis", "use_variants": True}, 2),
         ({"strategy": "entropy", "use_variants": True}, 2),
         # trains on observed images, scores on variants: not in the shared scores

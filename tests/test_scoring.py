@@ -18,7 +18,7 @@ from spl_al.training.compute import Compute
 CPU = Compute("cpu")
 
 ALL_FIELDS = ("entropy", "margin", "gamma", "inconsistency", "features", "group_features")
-ALL_FIELDS += ("labeled_features", "grad_q", "grad_h", "grad_embedding")
+ALL_FIELDS += ("labeled_features", "grad_q", "grad_h", "grad_embedding", "head_weight", "head_bias")
 
 
 class CountingModel:
@@ -27,6 +27,7 @@ class CountingModel:
     def __init__(self, model):
         self.model, self.images = model, 0
         self.task, self.n_classes, self.feature_dim = model.task, model.n_classes, model.feature_dim
+        self.fc = getattr(model, "fc", None)  # the classifier head (DropQuery's need)
 
     def to(self, device):
         self.model.to(device)
@@ -49,7 +50,7 @@ def cls_setup():
 
 
 # the generic scikit-activeml adapter is built with one of its classes
-PARAMS = {"skactiveml": {"cls": "TypiClust"}}
+PARAMS = {"skactiveml": {"cls": "TypiClust"}, "probcover": {"n_classes": 3}}
 
 
 @pytest.mark.parametrize("name", strategies.names())
@@ -109,9 +110,12 @@ def test_segmentation_inputs_are_per_group_and_average_observed_valid_pixels():
     depth, valid, _ = street_groups(9, n_groups=2, shape=(10, 14))
     model = build_model("segmentation", 3, width=4, depth=2, seed=0)
     unl, lab = np.array([0, 2, 3, 5, 8]), np.array([1, 4])
+    with pytest.raises(ValueError, match="no classifier head"):  # a segmenter has none
+        compute_inputs(model, {"features", "head"}, depth_m=depth, valid=valid,
+                       unlabeled_idx=unl, labeled_idx=lab, compute=CPU)  # fmt: skip
     inputs = compute_inputs(
         model,
-        NEEDS,
+        set(NEEDS) - {"head"},
         depth_m=depth,
         valid=valid,
         unlabeled_idx=unl,
@@ -142,7 +146,7 @@ def test_segmentation_inputs_are_per_group_and_average_observed_valid_pixels():
     emb = pixel_gradient_embedding(probs[:, 0], feats[:, 0], units)
     assert inputs.grad_embedding.shape == (n, 3 * 4) and inputs.grad_q is None
     assert np.allclose(inputs.grad_embedding, emb, atol=1e-5)
-    for name in strategies.names():
+    for name in set(strategies.names()) - {"dropquery"}:  # (no head: classification only)
         picks = (
             strategies.get(name, n_cand=2)
             if name in ("duis", "diversity")

@@ -20,11 +20,10 @@ pool = pytest.importorskip("skactiveml.pool")
 
 ROOT = Path(__file__).resolve().parents[1]
 # registered name -> (scikit-activeml class, parameters of both calls)
-NAMED = {
-    "typiclust": ("TypiClust", {}),
-    "probcover": ("ProbCover", {"n_classes": 5}),
-    "maxherding": ("MaxHerding", {}),
-}
+# (TypiClust and ProbCover are spl-al's own now: tests/test_lowbudget.py)
+NAMED = {"maxherding": ("MaxHerding", {})}
+# what the adapter passes scikit-activeml for each: MaxHerding with its paper's kernel
+DIRECT = {"maxherding": {"normalize_samples": True, "metric": "rbf", "metric_dict": {"gamma": 1.0}}}
 
 
 def _inputs(n_unl=300, n_lab=12, d=16, seed=0):
@@ -60,9 +59,9 @@ def test_picks_equal_scikit_activemls_direct_call(name, k):
     inputs = _inputs()
     ours = strategies.get(name, **params).select(inputs, k, np.random.default_rng(7))
     seed = query_seed(np.random.default_rng(7))  # the seed the adapter passed on
-    assert ours.tolist() == _direct(cls_name, params, inputs, k, seed).tolist()
-    # the generic form {skactiveml: CLASS} is the same strategy
-    generic = strategies.get("skactiveml", cls=cls_name, **params)
+    assert ours.tolist() == _direct(cls_name, DIRECT[name], inputs, k, seed).tolist()
+    # the generic form {skactiveml: CLASS, ...} with the same parameters is the same
+    generic = strategies.get("skactiveml", cls=cls_name, **DIRECT[name])
     assert generic.select(inputs, k, np.random.default_rng(7)).tolist() == ours.tolist()
 
 
@@ -89,7 +88,7 @@ def test_picks_do_not_change_when_the_labeled_rows_classes_are_permuted(name):
 
 def test_seed_passes_through_as_random_state():
     inputs = _inputs()
-    s = strategies.get("typiclust")
+    s = strategies.get("skactiveml", cls="TypiClust")
     a = s.select(inputs, 10, np.random.default_rng(1))
     assert a.tolist() == s.select(inputs, 10, np.random.default_rng(1)).tolist()
     seeds = {query_seed(np.random.default_rng(r)) for r in range(5)}
@@ -106,7 +105,8 @@ def test_a_repeated_pick_is_completed_not_passed_on():
         features=np.ones((20, 4), np.float32),
         labeled_features=np.ones((3, 4), np.float32),
     )
-    picks = strategies.get("typiclust").select(inputs, 12, np.random.default_rng(0))
+    typiclust = strategies.get("skactiveml", cls="TypiClust")
+    picks = typiclust.select(inputs, 12, np.random.default_rng(0))
     assert len(set(picks.tolist())) == 12 and set(picks.tolist()) <= set(range(20))
 
 
@@ -124,8 +124,8 @@ def _config(**methods):
         ({"skactiveml": "QueryByCommittee"}, ["QueryByCommittee needs ensemble"]),
         ({"skactiveml": "StreamRandomSampling"}, ["StreamRandomSampling is a stream strategy"]),
         ({"skactiveml": "NoSuchThing"}, ["no single-annotator pool strategy 'NoSuchThing'"]),
-        ({"strategy": "typiclust", "params": {"kk": 1}}, ["unexpected parameters ['kk']"]),
-        ({"strategy": "typiclust", "params": {"random_state": 1}}, ["set by the adapter"]),
+        ({"skactiveml": "TypiClust", "params": {"kk": 1}}, ["unexpected parameters ['kk']"]),
+        ({"skactiveml": "TypiClust", "params": {"random_state": 1}}, ["set by the adapter"]),
     ],
 )
 def test_unsupported_classes_fail_when_the_config_is_read(entry, words):
@@ -146,13 +146,13 @@ def test_config_runs_them_in_both_families_without_changing_the_default():
     check_plan(config)  # named, run by no default experiment
     for name in ("typiclust", "probcover", "maxherding"):
         assert name not in config["datasets"]["real_cls"]["experiments"]["budget"]["methods"]
-    budget = config["datasets"]["synth_cls"]["experiments"]["budget"]
+    budget = config["datasets"]["real_cls"]["experiments"]["budget"]
     budget["methods"] = ["random", "typiclust", "probcover", "maxherding", "duis"]
     config["methods"]["mine"] = {"skactiveml": "MaxHerding", "params": {"metric": "linear"}}
     budget["methods"].insert(-1, "mine")
     check_plan(config)
     specs = method_specs(config)
-    families = budget_families(config, "synth_cls", specs)
+    families = budget_families(config, "real_cls", specs)
     assert families["paper"] == ["random", "typiclust", "probcover", "maxherding", "mine", "duis"]
     assert families["matched"][:4] == [
         "syn_random", "syn_typiclust", "syn_probcover", "syn_maxherding"
@@ -165,7 +165,7 @@ def test_config_runs_them_in_both_families_without_changing_the_default():
 
 def test_importing_the_strategies_imports_no_scikit_activeml():
     code = (
-        "import sys, spl_al.strategies as s; s.get('typiclust');"
+        "import sys, spl_al.strategies as s; s.get('maxherding');"
         "assert 'skactiveml' in sys.modules;"
         "del sys.modules['skactiveml']"
     )

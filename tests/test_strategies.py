@@ -311,6 +311,9 @@ def make_inputs(n_unl=30, n_lab=6, c=4, d=5, g=3, kind="random", dense=False, se
         "features": feats[:, 0],
         "group_features": feats.mean(axis=1),
         "labeled_features": rng.normal(size=(n_lab, d)),
+        # a linear head: logits = features @ W.T + b (DropQuery's)
+        "head_weight": rng.normal(size=(c, d)),
+        "head_bias": rng.normal(size=c),
     }
     if dense:
         parts["grad_embedding"] = pixel_gradient_embedding(probs[:, 0], feats[:, 0][:, None])
@@ -325,10 +328,11 @@ DEFAULTS = {
     "duis": {"max_cand_fraction": None},
     "diversity": {"max_cand_fraction": None},
     "skactiveml": {"cls": "TypiClust"},
+    "probcover": {"n_classes": 4},  # built without it, it refuses to select
 }
 BUILTIN = strategies.base.builtin_names()
 # the scikit-activeml strategies need the optional extra spl-al[baselines]
-SKACTIVEML = {"skactiveml", "typiclust", "probcover", "maxherding"}
+SKACTIVEML = {"skactiveml", "maxherding"}
 try:
     import skactiveml  # noqa: F401
 
@@ -350,7 +354,10 @@ CASES = [_case(name, DEFAULTS.get(name, {})) for name in BUILTIN] + [
     _case("diversity", {"n_cand": 5}),
     _case("duis", {"n_cand": 8, "alpha": 1.0}),
     _case("badge", {"first": "random"}),
-    _case("probcover", {"n_classes": 4}),
+    _case("probcover", {"n_classes": 4, "purity": 0.5}),
+    _case("typiclust", {"k_nn": 3, "min_cluster_size": 0}),
+    _case("maxherding", {"bandwidth": 0.3}),
+    _case("dropquery", {"passes": 5, "dropout": 0.5}),
     _case("skactiveml", {"cls": "MaxHerding", "metric": "linear"}),
 ]
 
@@ -358,10 +365,10 @@ CASES = [_case(name, DEFAULTS.get(name, {})) for name in BUILTIN] + [
 def test_registry_lists_every_strategy_of_the_paper():
     assert set(BUILTIN) == {
         "random", "entropy", "margin", "coreset", "badge", "duis", "diversity",
-        "skactiveml", "typiclust", "probcover", "maxherding",
+        "skactiveml", "typiclust", "probcover", "maxherding", "dropquery",
     }  # fmt: skip
     for name in set(BUILTIN) - (set() if HAS_SKACTIVEML else SKACTIVEML):
-        s = strategies.get(name, **({"cls": "TypiClust"} if name == "skactiveml" else {}))
+        s = strategies.get(name, **DEFAULTS.get(name, {}))
         assert s.needs <= set(NEEDS) and s.name == name
     with pytest.raises(ValueError, match="unknown strategy"):
         strategies.get("bald")

@@ -70,6 +70,28 @@ class LinearProbe:
             self._model.fit((x - self._mean) / self._scale, y)
         return self
 
+    def head(self) -> tuple[np.ndarray, np.ndarray]:
+        """(W (C, d), b (C,)) with softmax(x @ W.T + b) = ``predict_proba(x)`` on raw
+        embeddings x: the standardisation folded into the weights, so that a strategy
+        that perturbs the classifier's input (DropQuery's dropout) perturbs the
+        embedding itself. A class without a labeled example gets b = -inf."""
+        if self._classes is None:
+            raise ValueError("LinearProbe.head before fit.")
+        d = len(self._mean)
+        weight = np.zeros((self.n_classes, d))
+        bias = np.full(self.n_classes, -np.inf)
+        if self._model is None:
+            bias[self._classes[0]] = 0.0
+            return weight, bias
+        coef, intercept = self._model.coef_, self._model.intercept_
+        if len(self._classes) == 2:  # scikit-learn keeps one row: logit(1) - logit(0)
+            coef = np.vstack([np.zeros(d), coef[0]])
+            intercept = np.array([0.0, intercept[0]])
+        w = coef / self._scale
+        weight[self._classes] = w
+        bias[self._classes] = intercept - w @ self._mean
+        return weight, bias
+
     def predict_proba(self, x) -> np.ndarray:
         """(n, C) class probabilities of embeddings ``x`` (n, d)."""
         if self._classes is None:
@@ -113,9 +135,13 @@ def probe_inputs(
     feats = embeddings[unl, :g]  # (n, G, d)
     b, _, d = feats.shape
     probs = probe.predict_proba(feats.reshape(b * g, d)).reshape(b, g, 1, -1)
-    arrays = dict(scores_from_outputs(needs - {"labeled_features"}, "classification", probs, feats))
+    arrays = dict(
+        scores_from_outputs(needs - {"labeled_features", "head"}, "classification", probs, feats)
+    )
     if "labeled_features" in needs:
         arrays["labeled_features"] = embeddings[lab, 0]
+    if "head" in needs:
+        arrays["head_weight"], arrays["head_bias"] = probe.head()
     arrays = {
         k: v.astype(np.float32) if np.ndim(v) == 2 else np.asarray(v, dtype=np.float64)
         for k, v in arrays.items()

@@ -150,4 +150,21 @@ def compute_inputs(
     for name, chunks in parts.items():
         value = np.concatenate(chunks)
         arrays[name] = value.astype(np.float32) if value.ndim == 2 else value.astype(np.float64)
+    if "head" in needs:
+        arrays["head_weight"], arrays["head_bias"] = classifier_head(model)
     return StrategyInputs(unlabeled_idx=unl, labeled_idx=lab, **arrays)
+
+
+def classifier_head(model: nn.Module) -> tuple[np.ndarray, np.ndarray]:
+    """(W (C, d) float32, b (C,) float64): a classifier's last linear layer, logits = W
+    f + b on its penultimate features f (its dropout is off when scoring), or a
+    ValueError for a model without one (a segmenter)."""
+    fc = getattr(model, "fc", None)
+    if getattr(model, "task", None) != "classification" or not isinstance(fc, nn.Linear):
+        raise ValueError(
+            f"{type(model).__name__} has no classifier head (a last linear layer on its "
+            "features); strategies that read it (dropquery) are for classification."
+        )
+    weight = fc.weight.detach().float().cpu().numpy()
+    bias = fc.bias.detach().double().cpu().numpy() if fc.bias is not None else np.zeros(len(weight))
+    return weight, bias

@@ -323,4 +323,6 @@ def _run(facts: ProbeData, spec: MethodSpec, *, which, al, rounds, c, n_variants
         rng = np.random.default_rng(step_seed(seed, r, QUERY_STREAM))
         pool.add(check_picks(spec.strategy, strategy.select(inputs, batch, rng), inputs, batch))
         records[-1]["seconds"] = round(time.perf_counter() - started, 4)
+        if strategy.decision:  # what the query after this round decided (ProbCover's radius, ...)
+            records[-1]["query_decision"] = dict(strategy.decision)
     return records

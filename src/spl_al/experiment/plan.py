@@ -135,13 +135,27 @@ def check_strategies(config: dict, specs: dict | None = None) -> None:
                 continue  # check_plan names it
             spec = dataset_method(config, dataset, name, specs)
             key = (spec.strategy, repr(sorted(spec.params.items())), spec.features)
-            if key in checked:
-                continue
-            checked.add(key)
             try:
                 strategy = get_strategy(spec.strategy, **spec.params)
             except ValueError as err:
                 raise ValueError(f"config key 'methods.{name}': {err}") from None
+            missing = [p for p in strategy.required if getattr(strategy, p, None) is None]
+            if missing:
+                raise ValueError(
+                    f"config key 'methods.{name}.params': {spec.strategy} needs "
+                    f"{', '.join(missing)}, which it does not guess (probcover: the task's "
+                    "class count, as in params: {n_classes: 11})."
+                )
+            task = config["datasets"][dataset].get("task")
+            if "head" in strategy.needs and task != "classification":
+                raise ValueError(
+                    f"config key 'methods.{name}': {spec.strategy} reads a classifier's last "
+                    f"layer, but {dataset} is a {task} dataset; run it on a classification "
+                    "dataset."
+                )
+            if key in checked:
+                continue
+            checked.add(key)
             scored = set(strategy.needs) - FEATURE_NEEDS
             if spec.features == "embedding" and scored:
                 raise ValueError(

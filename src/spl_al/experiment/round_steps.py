@@ -275,7 +275,10 @@ def _score_every_need(model, dataset, *, pool_idx, m, out_path, compute) -> None
     from spl_al.scoring import compute_inputs
 
     unlabeled = np.setdiff1d(np.arange(len(dataset.train_idx)), pool_idx)
-    passes = [(0, frozenset(NEEDS) - GROUP_NEEDS)] + ([(m, GROUP_NEEDS)] if m else [])
+    # a segmenter has no classifier head (the strategies that read one are refused there)
+    no_head = {"head"} if model.task != "classification" else set()
+    observed = frozenset(NEEDS) - GROUP_NEEDS - no_head
+    passes = [(0, observed)] + ([(m, GROUP_NEEDS)] if m else [])
     parts = {}
     for m_scored, needs in passes:
         depth, valid = dataset.groups(dataset.train_idx, n_variants=m_scored)
@@ -640,6 +643,8 @@ def query_round(
         "cand_ratio": None if n_cand is None or not n_unlabeled else n_cand / n_unlabeled,
         "queried": np.asarray(picked, dtype=np.int64).tolist(),
         "pool_indices": pool.labeled_idx.tolist(),
+        # what the strategy decided beyond its picks (ProbCover's radius and coverage, ...)
+        "decision": dict(strategy.decision),
     }
     write_json(record, out_path)
     return record

@@ -91,6 +91,7 @@ SOURCES = {
     "duis_best_every_level": PAPER,
     "duis_best_every_level_matched": EXTENSION,
     "duis_over_low_budget_matched": EXTENSION,
+    "condition_over_dropout_inconsistency": EXTENSION,
     "variant_training": EXTENSION,
     "uncertainty_over_random": EXTENSION,
     "diversity_over_uncertainty": PAPER,
@@ -358,6 +359,26 @@ def _low_budget_claim(cmp: pd.DataFrame, families, framework: str) -> dict | Non
     )
 
 
+def _dropquery_claim(cmp: pd.DataFrame) -> dict | None:
+    """DUIS beats Syn+DropQuery on the AUBC over the query rounds: the paper's
+    inconsistency under photon conditions against the generic one under feature dropout,
+    both with a k-means diversity step and trained on the variants (this project's
+    extension). None without both in the budget experiment."""
+    area = cmp[(cmp["experiment"] == "budget") & (cmp["point"] == "AUBC")]
+    pair = _pair(area, "budget", FULL_METHOD, "syn_dropquery")
+    if pair.empty:
+        return None
+    span = f" ({pair['span'].iloc[0]})" if "span" in pair and pd.notna(pair["span"].iloc[0]) else ""
+    return _all_beat(
+        "condition_over_dropout_inconsistency",
+        f"DUIS beats Syn+DropQuery, AUBC over query rounds{span} (DUIS's inconsistency "
+        "over photon conditions against DropQuery's over feature dropout, matched "
+        "training).",
+        "budget",
+        pair,
+    )
+
+
 def _pair(cmp: pd.DataFrame, experiment: str, a: str, b: str) -> pd.DataFrame:
     rows = cmp[cmp["experiment"] == experiment]
     pick = ((rows["method_a"] == a) & (rows["method_b"] == b)) | (
@@ -512,6 +533,7 @@ def claims(
     rows = [
         *_best_method_claims(cmp, metric, families or {}),
         _low_budget_claim(cmp, families, framework),
+        _dropquery_claim(cmp),
         *_decomposition_claims(cmp),
         _m_claim(cmp),
         _ncand_claim(cmp),
@@ -610,7 +632,11 @@ SIV_ENCODER_NOTE = (
 is ``siv`` (``encoder_claim_notes``); the figures are ``python -m spl_al.bench
 encoders``'s (docs/benchmarks.md, "Encoders")."""
 
-INCONSISTENCY_CLAIMS = ("inconsistency_over_diversity", "alpha_half_not_worse")
+INCONSISTENCY_CLAIMS = (
+    "inconsistency_over_diversity",
+    "alpha_half_not_worse",
+    "condition_over_dropout_inconsistency",
+)
 
 
 def encoder_claim_notes(objective: str) -> dict[str, str]:

@@ -24,13 +24,15 @@ METHOD_LABELS = {
     "syn_coreset": "Syn+Coreset",
     "syn_random": "Syn+Random",
     "syn_diversity": "Syn+Diversity",
-    # the low-budget baselines (scikit-activeml), after the paper's rows
+    # the low-budget baselines and DUIS's generic twin, after the paper's rows
     "typiclust": "TypiClust",
     "probcover": "ProbCover",
     "maxherding": "MaxHerding",
     "syn_typiclust": "Syn+TypiClust",
     "syn_probcover": "Syn+ProbCover",
     "syn_maxherding": "Syn+MaxHerding",
+    "dropquery": "DropQuery",
+    "syn_dropquery": "Syn+DropQuery",
     # the same, selecting on the self-supervised embedding (features: embedding)
     "typiclust_ssl": "TypiClust (SSL)",
     "probcover_ssl": "ProbCover (SSL)",
@@ -73,6 +75,7 @@ _STRATEGY_COLORS = {
     "typiclust": "#e377c2",
     "probcover": "#17becf",
     "maxherding": "#bcbd22",
+    "dropquery": "#393b79",
 }
 PALETTE = {
     **_STRATEGY_COLORS,

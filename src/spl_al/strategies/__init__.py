@@ -8,9 +8,12 @@
 - coreset: k-center greedy on penultimate features (Sener & Savarese 2018).
 - badge: k-means++ seeding on last-layer gradient embeddings (Ash et al. 2020).
 - duis: the paper's method (params n_cand, alpha, eps); diversity: DUIS with alpha = 0.
-- typiclust, probcover, maxherding, skactiveml (any feature-only class): scikit-activeml's
-  low-budget strategies through one adapter (``skactiveml_adapter``; the optional extra
-  ``spl-al[baselines]``).
+- typiclust, probcover: the low-budget strategies on L2-normalised features, as their
+  papers' reference code runs them (``typiclust``, ``probcover``).
+- dropquery: dropout-disagreement candidates, then k-means (Gupte et al. 2024), DUIS's
+  generic twin; it reads the classifier's last layer (need ``head``).
+- maxherding, skactiveml (any feature-only class): scikit-activeml's strategies through
+  one adapter (``skactiveml_adapter``; the optional extra ``spl-al[baselines]``).
 - anything another installed package registers under the entry-point group
   ``spl_al.strategies`` (``base.load_entry_points``).
 
@@ -25,12 +28,15 @@ from spl_al.strategies import (
     badge,
     coreset,
     diversity,
+    dropquery,
     duis,
     entropy,
     kmeans,
     margin,
+    probcover,
     random_sampling,
     skactiveml_adapter,
+    typiclust,
 )
 from spl_al.strategies.base import (
     ENTRY_POINT_GROUP,
@@ -55,6 +61,7 @@ __all__ = [
     "check_picks",
     "coreset",
     "diversity",
+    "dropquery",
     "duis",
     "entropy",
     "get",
@@ -62,7 +69,9 @@ __all__ = [
     "load_entry_points",
     "margin",
     "names",
+    "probcover",
     "random_sampling",
     "register",
     "skactiveml_adapter",
+    "typiclust",
 ]

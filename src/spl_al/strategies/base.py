@@ -14,6 +14,8 @@ They are looked up when a name is not a built-in (``get``) and by ``names()``.
 from __future__ import annotations
 
 import sys
+from collections.abc import Mapping
+from types import MappingProxyType
 from typing import ClassVar
 
 import numpy as np
@@ -82,6 +84,13 @@ class Strategy:
 
     name: ClassVar[str] = ""
     needs: ClassVar[frozenset[str]] = frozenset()
+    # What the last ``select`` decided beyond its picks (a JSON-able dict, empty for
+    # most strategies): ProbCover's radius and coverage, TypiClust's clusters, ...
+    # Each round's record keeps it.
+    decision: Mapping = MappingProxyType({})
+    # parameters a selection cannot do without (ProbCover's n_classes): a strategy is
+    # built without them (a training step asks only for its needs), a plan is refused
+    required: ClassVar[tuple[str, ...]] = ()
 
     def select(self, inputs: StrategyInputs, budget: int, rng: np.random.Generator) -> np.ndarray:
         """Indices (into the training set) of up to ``budget`` unlabeled groups to label.
@@ -97,6 +106,7 @@ class Strategy:
         if not isinstance(inputs, StrategyInputs):
             raise ValueError(f"inputs must be StrategyInputs, got {type(inputs).__name__}.")
         k = min(int(budget), inputs.n_unlabeled)
+        self.decision = {}
         if k == 0:  # nothing to pick: an empty pool needs no scores
             return np.zeros(0, dtype=np.int64)
         inputs.require(self.needs)

@@ -53,3 +53,38 @@ def sq_distances(
     d2 += x_sq[:, None]
     d2 += c_sq[None]
     return np.maximum(d2, 0.0, out=d2)
+
+
+def unit_rows(x) -> np.ndarray:
+    """Each row of the (n, d) ``x`` divided by its L2 norm, float32 (a zero row stays
+    zero): the features TypiClust, ProbCover and MaxHerding select on, as their
+    reference code loads them (scale-free: only a feature vector's direction counts)."""
+    x = np.asarray(x, dtype=np.float64)
+    norm = np.linalg.norm(x, axis=1, keepdims=True)
+    return np.ascontiguousarray(x / np.where(norm > 0, norm, 1.0), dtype=np.float32)
+
+
+def pool_features(inputs) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The whole pool's unit-length features in training-set order, which rows are
+    labeled, and each row's position in ``inputs.unlabeled_idx`` (-1 for a labeled one):
+    ((n, d) float32, (n,) bool, (n,) int64), n = labeled + unlabeled.
+
+    The order is the training set's, not "labeled first": a k-means seeded alike then
+    meets the same rows in the same order every round, whichever are labeled.
+    """
+    n_lab, n_unl = len(inputs.labeled_idx), len(inputs.unlabeled_idx)
+    idx = np.concatenate([inputs.labeled_idx, inputs.unlabeled_idx])
+    unl = np.asarray(inputs.features)
+    lab = np.asarray(inputs.labeled_features).reshape(n_lab, unl.shape[1])
+    feats = np.concatenate([lab, unl])
+    position = np.concatenate([np.full(n_lab, -1), np.arange(n_unl)]).astype(np.int64)
+    order = np.argsort(idx, kind="stable")
+    return unit_rows(feats[order]), position[order] < 0, position[order]
+
+
+def euclidean(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Euclidean distances (len(a), len(b)) of float32 rows (``sq_distances`` on rows
+    centred by their joint mean)."""
+    mean = row_mean(a, b)
+    ac, bc = centred(a, mean), centred(b, mean)
+    return np.sqrt(sq_distances(ac, np.einsum("ij,ij->i", ac, ac), bc))

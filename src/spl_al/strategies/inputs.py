@@ -41,10 +41,15 @@ NEEDS: dict[str, tuple[str, ...]] = {
     # grad_q = p - onehot (n, C) and grad_h = features (n, d) for classification, or the
     # dense pixel-averaged embedding grad_embedding (n, C * d) for segmentation
     "grad_embedding": ("grad_q", "grad_h", "grad_embedding"),
+    # classification: the model's last linear layer, logits = features @ W.T + b, in the
+    # units of ``features``: W (C, d), b (C,); a class the model cannot predict has b = -inf
+    "head": ("head_weight", "head_bias"),
 }
 # needs that require a forward pass over every image of a group, not just the observed one
 GROUP_NEEDS = frozenset({"margin_inconsistency", "group_features"})
 ARRAY_FIELDS = tuple(dict.fromkeys(f for fs in NEEDS.values() for f in fs))
+# fields whose rows are not one per unlabeled group: name -> (ndim, rows)
+OTHER_ROWS = {"labeled_features": (2, "labeled"), "head_weight": (2, None), "head_bias": (1, None)}
 
 
 def check_needs(needs) -> frozenset[str]:
@@ -80,6 +85,7 @@ class StrategyInputs:
         entropy, margin, gamma, inconsistency: (n,) per-group scores (see ``NEEDS``).
         features, group_features: (n, d); labeled_features: (n_labeled, d).
         grad_q: (n, C), grad_h: (n, d), grad_embedding: (n, C * d): BADGE embeddings.
+        head_weight: (C, d), head_bias: (C,): the classifier's last linear layer.
     """
 
     unlabeled_idx: np.ndarray
@@ -94,6 +100,8 @@ class StrategyInputs:
     grad_q: np.ndarray | None = None
     grad_h: np.ndarray | None = None
     grad_embedding: np.ndarray | None = None
+    head_weight: np.ndarray | None = None
+    head_bias: np.ndarray | None = None
 
     def __post_init__(self) -> None:
         self.unlabeled_idx = as_index_array("unlabeled_idx", self.unlabeled_idx)
@@ -106,13 +114,21 @@ class StrategyInputs:
             if value is None:
                 continue
             value = np.asarray(value)
-            rows = n_lab if name == "labeled_features" else n
-            ndim = 1 if name in ("entropy", "margin", "gamma", "inconsistency") else 2
-            if value.ndim != ndim or value.shape[0] != rows:
-                raise ValueError(
-                    f"{name} must be {ndim}-D with {rows} rows, got shape {value.shape}."
-                )
+            ndim, rows = OTHER_ROWS.get(name, (2, n))
+            if name in ("entropy", "margin", "gamma", "inconsistency"):
+                ndim = 1
+            rows = n_lab if rows == "labeled" else rows
+            if value.ndim != ndim or (rows is not None and value.shape[0] != rows):
+                want = f"{ndim}-D with {rows} rows" if rows is not None else f"{ndim}-D"
+                raise ValueError(f"{name} must be {want}, got shape {value.shape}.")
             setattr(self, name, value)
+        if self.head_weight is not None and (
+            self.head_bias is None or self.head_bias.shape != self.head_weight.shape[:1]
+        ):
+            raise ValueError(
+                f"head_bias must be ({len(self.head_weight)},) beside head_weight "
+                f"{self.head_weight.shape}."
+            )
 
     def has(self, need: str) -> bool:
         """Whether the parts of ``need`` are present (either BADGE form counts)."""

@@ -255,7 +255,9 @@ def train_encoder(
             "precision": "fp32",
             # the vector kernels torch ran (AVX512, AVX2, ...): a CPU capped at AVX2 by
             # ATEN_CPU_CAPABILITY trains other weights than the same CPU uncapped
-            "cpu_capability": None if dev.type == "cuda" else torch.backends.cpu.get_cpu_capability(),
+            "cpu_capability": (
+                None if dev.type == "cuda" else torch.backends.cpu.get_cpu_capability()
+            ),
         },
     }
     return encoder, record
