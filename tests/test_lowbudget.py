@@ -325,3 +325,16 @@ def test_a_supervised_dropquery_query_reads_the_saved_head(tmp_path):
         out_path=tmp_path / "query.json",
     )
     assert record["decision"]["candidates"] >= 8 and len(record["queried"]) == 8
+
+
+def test_probcover_balls_are_symmetric_and_hold_their_centres():
+    from spl_al.strategies.probcover import ball_graph
+
+    rng = np.random.default_rng(0)
+    x = rng.normal(size=(300, 8)).astype(np.float32)
+    x /= np.linalg.norm(x, axis=1, keepdims=True)
+    indptr, indices = ball_graph(x, 0.9)
+    pairs = {(i, int(j)) for i in range(300) for j in indices[indptr[i] : indptr[i + 1]]}
+    assert all((j, i) in pairs for i, j in pairs) and all((i, i) in pairs for i in range(300))
+    d = np.linalg.norm(x[:, None] - x[None], axis=-1)
+    assert pairs <= {(i, j) for i, j in zip(*np.nonzero(d < 0.9 + 1e-5), strict=True)}

@@ -65,14 +65,15 @@ def purity_radius(x: np.ndarray, clusters: np.ndarray, purity: float) -> tuple[f
 def ball_graph(x: np.ndarray, delta: float) -> tuple[np.ndarray, np.ndarray]:
     """The pool's balls as compressed rows (``indptr`` (n + 1,), ``indices``): row i
     lists the samples j with ||x_i - x_j|| < delta (i itself when delta > 0). The
-    relation is symmetric, so row j also lists the balls that hold j."""
-    counts, cols = [], []
-    for s in range(0, len(x), _BLOCK_ROWS):
-        inside = euclidean(x[s : s + _BLOCK_ROWS], x) < delta
-        counts.append(inside.sum(axis=1))
-        cols.append(np.nonzero(inside)[1])
-    indptr = np.concatenate([[0], np.cumsum(np.concatenate(counts))]).astype(np.int64)
-    return indptr, np.concatenate(cols).astype(np.int64)
+    relation is made exactly symmetric (a pair at the boundary counts only if both of
+    its rounded distances fall inside), so row j also lists the balls that hold j."""
+    n = len(x)
+    inside = np.zeros((n, n), dtype=bool)
+    for s in range(0, n, _BLOCK_ROWS):
+        inside[s : s + _BLOCK_ROWS] = euclidean(x[s : s + _BLOCK_ROWS], x) < delta
+    inside &= inside.T
+    indptr = np.concatenate([[0], np.cumsum(inside.sum(axis=1))]).astype(np.int64)
+    return indptr, np.nonzero(inside)[1].astype(np.int64)
 
 
 @register
