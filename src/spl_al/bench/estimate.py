@@ -234,9 +234,13 @@ def estimate_dataset(config: dict, dataset: str, *, tmp: Path, steps: int, jobs:
     }
 
 
-def probe_round_seconds(*, n_pool: int, n_test: int, m: int, dim: int, n_labeled: int) -> float:
-    """Seconds of one embedding-framework round (fit, measure, score, query), the mean
-    of timed rounds of a few strategies on random embeddings of the pool's size."""
+def probe_round_seconds(
+    spec, *, n_pool: int, n_test: int, m: int, dim: int, n_labeled: int, repeats: int = 3
+) -> float:
+    """Seconds of one embedding-framework round of the method ``spec`` (a ``MethodSpec``):
+    fit the linear probe on its images, measure the test split, score and query the
+    pool, timed ``repeats`` times on random embeddings of the pool's size (the first
+    run, imports and warm-up, not counted)."""
     import numpy as np
     from threadpoolctl import threadpool_limits
 
@@ -246,32 +250,40 @@ def probe_round_seconds(*, n_pool: int, n_test: int, m: int, dim: int, n_labeled
     labels = rng.integers(0, 11, n_pool)
     labeled = np.arange(n_labeled)
     unlabeled = np.arange(labeled.size, n_pool)
-    # the first: imports and warm-up; then observed-only and variant fits, as a budget mixes
-    cases = [("random", 1), ("margin", 1), ("margin", 1 + m), ("coreset", 1), ("duis", 1 + m)]
+    g = 1 + spec.variants_seen(m)
+    params = dict(spec.params)
+    if "n_cand" in params:  # the pool here may be smaller than the run's: keep the rule
+        params["n_cand"] = max(2, min(int(params["n_cand"]), unlabeled.size // 2))
+    strategy = get(spec.strategy, **params)
+    n_images = 1 + spec.variants_seen(m)
     with threadpool_limits(limits=1):
-        for i, (strategy, g) in enumerate(cases):
+        for i in range(1 + repeats):
             if i == 1:
                 started = time.perf_counter()
-            s = get(
-                strategy,
-                **({"n_cand": max(2, min(160, unlabeled.size // 2))} if strategy == "duis" else {}),
-            )
             x_fit = emb[labeled, :g].reshape(-1, emb.shape[-1])
             probe = LinearProbe(11).fit(x_fit, np.repeat(labels[labeled], g))
             probe.predict_proba(emb[:n_test, 0])
             inputs = probe_inputs(
-                probe, emb, s.needs, unlabeled_idx=unlabeled, labeled_idx=labeled, n_images=g
-            )
-            s.select(inputs, 20, np.random.default_rng(0))
-    return (time.perf_counter() - started) / (len(cases) - 1)
+                probe, emb, strategy.needs, unlabeled_idx=unlabeled, labeled_idx=labeled,
+                n_images=n_images,
+            )  # fmt: skip
+            strategy.select(inputs, 20, np.random.default_rng(i))
+    return (time.perf_counter() - started) / repeats
 
 
-def embedding_seconds(config: dict, dataset: str, *, steps: int = 5) -> dict:
-    """Core seconds of a dataset's embedding framework (none without one): its encoders
-    (``steps`` timed steps of the recipe, scaled to its steps, plus embedding every
-    image, times the encoders planned) and the probe runs (a few timed rounds of DUIS
-    and Random on random embeddings of the pool's size, times the rounds planned), and
-    its job count."""
+def embedding_seconds(config: dict, dataset: str, *, steps: int = 10) -> dict:
+    """Core seconds of a dataset's embedding framework (none without one) and its job
+    count.
+
+    - Each encoder job: the recipe's steps at the per-step time of ``steps`` timed steps
+      (from the difference of a 1-step and a (1 + ``steps``)-step ``train_encoder`` on
+      random frames of the training pool's size, so that the views index a pool as
+      large as the run's), its fixed cost (the 1-step run less a step: the pool's
+      network input, the model's start), loading the dataset and embedding every image.
+    - The probe runs: each planned method's rounds at its own timed round
+      (``probe_round_seconds``: the low-budget strategies cost 2-3x Random's), and the
+      paired statistics over every seed.
+    """
     # torch and pandas on demand (importing this module does not load them)
     from dataclasses import replace
 
@@ -279,7 +291,7 @@ def embedding_seconds(config: dict, dataset: str, *, steps: int = 5) -> dict:
     import torch
 
     from spl_al.experiment.encoders import encoder_recipe, encoder_seeds
-    from spl_al.experiment.plan import dataset_runs, labeled_at
+    from spl_al.experiment.plan import dataset_method, dataset_runs, labeled_at
     from spl_al.training.contrastive import Encoder, EncoderConfig, train_encoder
 
     entry = config["datasets"][dataset]
@@ -291,39 +303,40 @@ def embedding_seconds(config: dict, dataset: str, *, steps: int = 5) -> dict:
     n_pool, n_test, _ = split_sizes(entry)
     m = int(entry["variants"]["n"])
     shape = tuple((entry.get("synthesis") or {}).get("image_shape") or (64, 64))
-    batch = min(cfg.batch_size, n_pool)
-    # what the encoder job runs (views, shifts, channels-last, deterministic kernels),
-    # on random frames: 1 step to warm up, then ``steps`` timed from the difference
     rng = np.random.default_rng(0)
-    depth = rng.uniform(5, 50, size=(batch, 1 + m, *shape)).astype(np.float32)
+    depth = rng.uniform(5, 50, size=(n_pool, 1 + m, *shape)).astype(np.float32)
     valid = np.ones(depth.shape, dtype=bool)
     seconds = [
         train_encoder(depth, valid, cfg=replace(cfg, steps=k), log=os.devnull)[1]["train_seconds"]
         for k in (1, 1 + steps)
     ]
     step_s = max(seconds[1] - seconds[0], 0.0) / steps
-    encoder = Encoder(cfg)
-    x = torch.randn(2 * batch, 2, *shape)
+    fixed_s = max(seconds[0] - step_s, 0.0)
+    encoder = Encoder(cfg).eval()
+    x = torch.randn(512, 2, *shape)
     with torch.no_grad():
         started = time.perf_counter()
         encoder(x)
         image_s = (time.perf_counter() - started) / len(x)
-    encoder_s = n_encoders * (cfg.steps * step_s + (n_pool * (1 + m) + n_test) * image_s)
+    # the job also reads the dataset: ~75 ns a pixel of every image (the Zen 3 EPYC's:
+    # 1.7 s for real_cls's 1,100 x 5 images of 64 x 64)
+    load_s = 7.5e-8 * (n_pool + n_test) * (1 + m) * shape[0] * shape[1]
+    per_encoder = fixed_s + cfg.steps * step_s + load_s + (n_pool * (1 + m) + n_test) * image_s
     runs = dataset_runs(config, dataset, "embedding")
-    rounds = sum(runs.values())
-    round_s = probe_round_seconds(
-        n_pool=n_pool,
-        n_test=n_test,
-        m=m,
-        dim=8 * cfg.width,
-        n_labeled=labeled_at(entry["al"], 1),
+    per_method: dict[str, int] = {}
+    for (method, _seed), rounds in runs.items():
+        per_method[method] = per_method.get(method, 0) + int(rounds)
+    sizes = dict(n_pool=n_pool, n_test=n_test, m=m, dim=8 * cfg.width)
+    sizes["n_labeled"] = labeled_at(entry["al"], 1)
+    probe_s = sum(
+        rounds * probe_round_seconds(dataset_method(config, dataset, method), **sizes)
+        for method, rounds in per_method.items()
     )
-    methods = {method for method, _seed in runs}
     report_s = REPORT_S_PER_RUN * len(runs)  # the paired statistics over every seed
     return {
-        "encoder_s": encoder_s,
-        "probe_s": rounds * round_s + report_s,
-        "jobs": n_encoders + len(methods) + REPORT_JOBS,
+        "encoder_s": n_encoders * per_encoder,
+        "probe_s": probe_s + report_s,
+        "jobs": n_encoders + len(per_method) + REPORT_JOBS,
     }
 
 
