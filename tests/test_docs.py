@@ -383,3 +383,10 @@ def test_keep_absent_updates_one_dataset_of_a_shared_page(tmp_path):
 
     page, text = run(second)
     assert "## synth_cls" not in page and "synth_cls" not in text
+    # --drop: a dataset such a run no longer makes loses its earlier part, others keep theirs
+    run(first)
+    _fake_dataset(first, "street_seg", "miou", False)
+    run(first)
+    page, text = run(second, "--keep-absent", "--drop", "synth_cls")
+    assert "## synth_cls" not in page and "synth_cls" not in text
+    assert "## street_seg" in page and "**street_seg**" in text

@@ -346,17 +346,23 @@ def aubc_overview(results: Path, kept: dict[str, Column] | None = None) -> list[
 
 
 def readme_block(
-    results: Path, page: str = BLOCK, earlier: str | None = None, *, framework: str = "supervised"
+    results: Path,
+    page: str = BLOCK,
+    earlier: str | None = None,
+    *,
+    framework: str = "supervised",
+    drop: frozenset = frozenset(),
 ) -> str:
     """The README's compact results of a run (``page``): one AUBC table of every dataset
     (``aubc_overview``), then each dataset's verdicts; the per-round tables are on
     docs/{page}.md. ``earlier``: the block as it was, whose datasets the folder lacks
-    are kept (``--keep-absent``)."""
+    are kept (``--keep-absent``), but those in ``drop``."""
     present = datasets(results)
-    chunks = {d: c for d, c in readme_chunks(earlier or "").items() if d not in present}
+    gone = set(present) | set(drop)
+    chunks = {d: c for d, c in readme_chunks(earlier or "").items() if d not in gone}
     lines = [_generated_by(page, kept=list(chunks), on_page=False, framework=framework), ""]
     parts: dict[str, list[str]] = {name: [chunk, ""] for name, chunk in chunks.items()}
-    kept = {d: c for d, c in overview_columns(earlier or "").items() if d not in present}
+    kept = {d: c for d, c in overview_columns(earlier or "").items() if d not in gone}
     lines += ["**Area under the budget curve over the query rounds** (%) [95% CI]:", ""]
     lines += [*aubc_overview(results, kept), ""]
     for dataset in present:
@@ -495,17 +501,20 @@ def results_block(
     page: str = BLOCK,
     earlier: str | None = None,
     framework: str = "supervised",
+    drop: frozenset = frozenset(),
 ) -> str:
     """docs/{page}.md's generated part: every dataset's tables, verdicts and figures.
     ``earlier``: the block as it was, whose datasets the folder lacks keep their
-    sections (``--keep-absent``)."""
+    sections (``--keep-absent``), but those in ``drop``."""
     figures = figures or {}
     stamp = ""
     stamps = [p.stat().st_mtime for p in results.glob("*/tables/summary.json")]
     if stamps:
         stamp = datetime.fromtimestamp(max(stamps), tz=UTC).strftime(" (tables of %Y-%m-%d)")
     present = datasets(results)
-    kept = {d: s for d, s in page_sections(earlier or "").items() if d not in present}
+    kept = {
+        d: s for d, s in page_sections(earlier or "").items() if d not in present and d not in drop
+    }
     sections: dict[str, list[str]] = {d: [s, ""] for d, s in kept.items()}
     for dataset in present:
         summary = _summary(results, dataset)
@@ -606,11 +615,12 @@ def update(
     page: str = BLOCK,
     keep_absent: bool = False,
     framework: str = "supervised",
+    drop=(),
 ) -> list[Path]:
     """``update_pages`` of the run's ``framework``: "embedding" reads each dataset's
     ``embedding/`` outputs (``framework_view``)."""
     if framework == "supervised":
-        return update_pages(results, docs, readme, page=page, keep_absent=keep_absent)
+        return update_pages(results, docs, readme, page=page, keep_absent=keep_absent, drop=drop)
     if framework != "embedding":
         raise ValueError(f"--framework must be supervised or embedding, got {framework!r}.")
     import tempfile
@@ -618,7 +628,7 @@ def update(
     with tempfile.TemporaryDirectory() as tmp:
         view = framework_view(results, Path(tmp) / Path(results).name)
         return update_pages(
-            view, docs, readme, page=page, keep_absent=keep_absent, framework=framework
+            view, docs, readme, page=page, keep_absent=keep_absent, framework=framework, drop=drop
         )
 
 
@@ -630,12 +640,15 @@ def update_pages(
     page: str = BLOCK,
     keep_absent: bool = False,
     framework: str = "supervised",
+    drop=(),
 ) -> list[Path]:
     """Copy the figures, rewrite docs/{page}.md's generated block and the README's block
     named ``page`` (the README is left alone when it has no such block, unless ``page``
     is the default run's ``results``). With ``keep_absent`` the datasets the folder
-    lacks keep what both blocks said of them. Returns the files written."""
+    lacks keep what both blocks said of them, but those ``drop`` names (a dataset such
+    a run no longer makes). Returns the files written."""
     results, docs, readme = Path(results), Path(docs), Path(readme)
+    drop = frozenset(drop)
     if not datasets(results):
         raise ValueError(f"{results} holds no dataset with tables/budget.csv.")
     if not page.replace("-", "").replace("_", "").isalnum():
@@ -650,14 +663,14 @@ def update_pages(
     }
     text = path.read_text() if path.exists() else DEFAULT_RESULTS_PAGE
     earlier = block(text, BLOCK) if keep_absent else None
-    body = results_block(results, names, page=page, earlier=earlier, framework=framework)
+    body = results_block(results, names, page=page, earlier=earlier, framework=framework, drop=drop)
     writes = [(path, replace_block(text, BLOCK, body))]
     if readme.exists():
         text = readme.read_text()
         start = markers(page)[0]
         if page == BLOCK or any(line.strip() == start for line in text.split("\n")):
             earlier = block(text, page) if keep_absent else None
-            body = readme_block(results, page, earlier, framework=framework)
+            body = readme_block(results, page, earlier, framework=framework, drop=drop)
             writes.append((readme, replace_block(text, page, body)))
     copy_figures(results, docs / "figures", page)
     for target, content in writes:
@@ -683,6 +696,14 @@ def main(argv: list[str] | None = None) -> int:
         "dataset into its own folder updates its part of a shared page)",
     )
     parser.add_argument(
+        "--drop",
+        nargs="+",
+        default=[],
+        metavar="DATASET",
+        help="with --keep-absent: datasets whose earlier part goes (the run no longer makes "
+        "them); their figures on the page's folder stay until overwritten",
+    )
+    parser.add_argument(
         "--framework",
         default="supervised",
         choices=("supervised", "embedding"),
@@ -697,6 +718,7 @@ def main(argv: list[str] | None = None) -> int:
             page=args.page,
             keep_absent=args.keep_absent,
             framework=args.framework,
+            drop=args.drop,
         )
     except ValueError as exc:
         print(f"error: {exc}", file=sys.stderr)
