@@ -236,6 +236,10 @@ def test_training_notes_name_a_warm_start():
     config["datasets"]["street_seg"]["train"]["warm_start"] = {"mixup": 0.5}
     with pytest.raises(ValueError, match="warm_start"):
         check_config(config, schema)
+    # the default run's synth_cls fine-tunes in its decisive config, but trains no network
+    # in the default run (its embedding framework alone): no note there
+    assert _merged()["datasets"]["synth_cls"]["train"]["warm_start"]
+    assert training_notes(_merged(), "synth_cls") == []
 
 
 def test_training_notes_name_steps_that_scale_with_images():

@@ -264,7 +264,11 @@ def training_notes(config: dict, dataset: str) -> list[str]:
     """Notes a dataset's tables carry about how its methods were trained: one when
     ``train.fit.steps_by`` is "images" (steps are then not equal across methods at a
     budget), one when ``train.warm_start`` fine-tunes each round from the last; none
-    under the default policy (epochs count labeled groups, every round fresh weights)."""
+    under the default policy (epochs count labeled groups, every round fresh weights),
+    and none for a dataset that trains no network (no supervised experiment: its
+    embedding framework fits a linear probe)."""
+    if not config["datasets"][dataset].get("experiments"):
+        return []
     train = config["datasets"][dataset].get("train", {})
     fit = train.get("fit") or {}
     notes = [STEPS_BY_IMAGES_NOTE] if fit.get("steps_by") == "images" else []
