@@ -255,7 +255,6 @@ def probe_round_seconds(
     if "n_cand" in params:  # the pool here may be smaller than the run's: keep the rule
         params["n_cand"] = max(2, min(int(params["n_cand"]), unlabeled.size // 2))
     strategy = get(spec.strategy, **params)
-    n_images = 1 + spec.variants_seen(m)
     with threadpool_limits(limits=1):
         for i in range(1 + repeats):
             if i == 1:
@@ -265,7 +264,7 @@ def probe_round_seconds(
             probe.predict_proba(emb[:n_test, 0])
             inputs = probe_inputs(
                 probe, emb, strategy.needs, unlabeled_idx=unlabeled, labeled_idx=labeled,
-                n_images=n_images,
+                n_images=g,
             )  # fmt: skip
             strategy.select(inputs, 20, np.random.default_rng(i))
     return (time.perf_counter() - started) / repeats

@@ -124,3 +124,15 @@ def kmeans(
         if shift <= tol_abs:
             break
     return centres + mean
+
+
+def unit_clusters(x: np.ndarray, k: int, *, rng: np.random.Generator) -> np.ndarray:
+    """Cluster of every row of the unit-length (n, d) float32 ``x`` after ``kmeans`` into
+    ``k``: (n,) int64. The points sit on the unit sphere (no offset to cancel), so the
+    nearest centre is found on the points less their float32 mean (TypiClust's and
+    ProbCover's clusters)."""
+    centres = kmeans(x, k, rng=rng).astype(np.float32)
+    mean = x.mean(axis=0)
+    xc = x - mean
+    labels, _ = assign(xc, np.einsum("ij,ij->i", xc, xc), centres - mean)
+    return labels

@@ -34,7 +34,7 @@ import numpy as np
 from spl_al.strategies.base import Strategy, register
 from spl_al.strategies.distances import euclidean, pool_features
 from spl_al.strategies.inputs import StrategyInputs
-from spl_al.strategies.kmeans import assign, kmeans
+from spl_al.strategies.kmeans import unit_clusters
 
 # rows of one distance block (float32 rows x pool)
 _BLOCK_ROWS = 1024
@@ -110,10 +110,7 @@ class ProbCoverStrategy(Strategy):
         if self.n_classes is None:
             raise ValueError(MISSING_CLASSES)
         k = min(self.n_classes, len(x))
-        centres = kmeans(x, k, rng=np.random.default_rng(self.seed)).astype(np.float32)
-        mean = x.mean(axis=0)
-        xc = x - mean
-        clusters, _ = assign(xc, np.einsum("ij,ij->i", xc, xc), centres - mean)
+        clusters = unit_clusters(x, k, rng=np.random.default_rng(self.seed))
         return purity_radius(x, clusters, self.purity)
 
     def _select(self, inputs: StrategyInputs, k: int, rng: np.random.Generator) -> np.ndarray:

@@ -27,7 +27,7 @@ import numpy as np
 from spl_al.strategies.base import Strategy, register
 from spl_al.strategies.distances import euclidean, pool_features
 from spl_al.strategies.inputs import StrategyInputs
-from spl_al.strategies.kmeans import assign, kmeans
+from spl_al.strategies.kmeans import unit_clusters
 
 
 def typicality(x: np.ndarray, k_nn: int) -> np.ndarray:
@@ -79,9 +79,7 @@ class TypiClustStrategy(Strategy):
     def _select(self, inputs: StrategyInputs, k: int, rng: np.random.Generator) -> np.ndarray:
         x, labeled, position = pool_features(inputs)
         n_clusters = min(int(labeled.sum()) + k, self.max_clusters, len(x))
-        centres = kmeans(x, n_clusters, rng=rng).astype(np.float32)
-        xc = x - x.mean(axis=0)
-        cluster, _ = assign(xc, np.einsum("ij,ij->i", xc, xc), centres - x.mean(axis=0))
+        cluster = unit_clusters(x, n_clusters, rng=rng)
         sizes = np.bincount(cluster, minlength=n_clusters)
         labeled_in = np.bincount(cluster[labeled], minlength=n_clusters)
         kept = np.flatnonzero(sizes > self.min_cluster_size)
