@@ -5,6 +5,8 @@ built from the runs' records whatever their source: tests/test_pipeline.py cover
 
 from __future__ import annotations
 
+import json
+import re
 import shutil
 import subprocess
 from pathlib import Path
@@ -12,6 +14,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 import pytest
+import yaml
 from photon_captures import simulate_capture, write_ptu, write_timestamps_mat
 from snakemake_cli import CI_CONFIG, SNAKEMAKE
 
@@ -93,3 +96,46 @@ def test_captures_run_through_the_budget_and_level_tables(captures, tmp_path):
     assert set(budget["method"]) == {"random", "duis"}
     assert set(levels["level"]) == set(LEVELS.values())
     assert len(pd.read_csv(tables / "comparisons.csv")) > 0
+
+
+def walkthrough_config() -> dict:
+    """The zero-label walk-through's config, as docs/labeling.md shows it."""
+    text = (Path(__file__).resolve().parents[1] / "docs" / "labeling.md").read_text()
+    block = re.search(r"<!-- plans: caps -->\n```yaml\n(.*?)```", text, re.S)
+    assert block, "docs/labeling.md has no zero-label config (<!-- plans: caps -->)"
+    return yaml.safe_load(block.group(1))
+
+
+def test_the_zero_label_walkthrough_writes_a_typiclust_first_batch(captures, tmp_path):
+    """docs/labeling.md's config on simulated captures with test rows alone: the run
+    trains the encoder on the unlabeled frames and stops at a first batch TypiClust
+    chose on it, which says so; no label file exists yet."""
+    root, _ = captures
+    config = walkthrough_config()
+    entry = config["datasets"]["caps"]
+    assert entry["al"]["initial_strategy"] == "typiclust" and entry["oracle"] == "human"
+    seed_labels = tmp_path / "test_labels.csv"
+    rows = [f"digit{k}_0005.npz,digit{k},test" for k in range(10)]
+    seed_labels.write_text("file,label,split\n" + "\n".join(rows) + "\n")
+    # the walk-through's settings on 60 small captures: a short encoder, two variants
+    entry.update(path=str(root), seed_labels=str(seed_labels), captures={"shards": 2})
+    entry.update(
+        classes=[f"digit{k}" for k in range(10)], variants={"n": 2, "shards": 1, "seed": 0}
+    )
+    entry["embedding"]["encoder"].update(steps=20, batch_size=16, width=4)
+    config["results"] = str(tmp_path / "results")
+    (tmp_path / "zero.yaml").write_text(yaml.safe_dump(config))
+    batch = tmp_path / "results" / "caps" / "initial" / "seed1" / "to_label"
+    cmd = [*SNAKEMAKE, "-j2", str(batch), "--configfile", str(tmp_path / "zero.yaml")]
+    run = subprocess.run(cmd, cwd=tmp_path, capture_output=True, text=True)
+    assert run.returncode == 0, run.stdout[-3000:] + run.stderr[-3000:]
+
+    record = json.loads((batch.parent.parent / "seed1.json").read_text())
+    assert record["n_labeled"] == 10 and record["chosen_by"]["strategy"] == "typiclust"
+    assert record["chosen_by"]["encoder"]["encoder_seed"] == 0
+    with open(batch / "to_label.csv") as f:
+        assert len(f.read().splitlines()) == 11  # header + the 10 frames, labels empty
+    assert "chosen by typiclust on the dataset's self-supervised encoder" in (
+        (batch / "README.txt").read_text()
+    )
+    assert not (tmp_path / "labels").exists()  # nothing labeled: the run waits for you

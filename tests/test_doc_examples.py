@@ -28,7 +28,13 @@ ROOT = Path(__file__).resolve().parents[1]
 PAGES = [ROOT / "README.md", *sorted((ROOT / "docs").glob("*.md"))]
 BLOCK = re.compile(r"(?:<!-- plans: ([^>]*?) -->\n)?```yaml\n(.*?)```", re.S)
 # Paths the examples name, and what stands in for them in a test.
-PLACEHOLDERS = ("data/frames", "data/seed_labels.csv", "/data/scans", "/data/released")
+PLACEHOLDERS = (
+    "data/frames",
+    "data/seed_labels.csv",
+    "data/test_labels.csv",
+    "/data/scans",
+    "/data/released",
+)
 
 
 def examples() -> list[tuple[str, list[str] | None, str]]:
@@ -101,6 +107,8 @@ def placeholders(tmp_path: Path) -> dict[str, str]:
         "file,label,split\nframe_0007.npz,car,test\nframe_0031.npz,person,test\n"
         "frame_0002.npz,car,train\n"
     )
+    test_only = tmp_path / "data" / "test_labels.csv"  # no train row: round 0 is chosen
+    test_only.write_text("file,label,split\ncar_0001.npz,car,test\nperson_0001.npz,person,test\n")
     scans = tmp_path / "scans"
     scans.mkdir()
     for name in ("car_0001", "car_0002", "person_0001", "person_0002"):
@@ -111,6 +119,7 @@ def placeholders(tmp_path: Path) -> dict[str, str]:
     return {
         "data/frames": str(frames),
         "data/seed_labels.csv": str(labels),
+        "data/test_labels.csv": str(test_only),
         "/data/scans": str(scans),
         "/data/released": str(released),
     }

@@ -168,7 +168,7 @@ def test_the_run_records_the_ci_config_with_the_defaults_it_does_not_name(ci_res
 def test_paired_statistics_claims_and_robustness_map(ci_results):
     cls = ci_results / "real_cls" / "tables"
     cmp = pd.read_csv(cls / "comparisons.csv")
-    assert set(cmp["experiment"]) == {"budget", "levels", "ablation", "sensitivity"}
+    assert set(cmp["experiment"]) == {"budget", "levels", "ablation", "sensitivity", "cold_start"}
     budget = cmp[cmp["experiment"] == "budget"]
     # 8 methods: 28 pairs at each of 2 rounds and for the AUBC over the query round
     assert len(budget) == 28 * 3 and (budget["point"] == "AUBC").sum() == 28
@@ -380,6 +380,11 @@ CHANGES = {
             "real_cls/typiclust_ssl/seed1/round0/scores.npz",  # it selects on them
         ],
         ["*/data/*", "*/initial/*", "real_cls/random/*", "real_cls/duis/*", "street_*"],
+    ),
+    "a cold start's strategies": (
+        "datasets: {real_cls: {experiments: {cold_start: {starts: [typiclust, maxherding]}}}}",
+        ["real_cls/initial_maxherding/seed1.json", "real_cls/tables/cold_start.csv"],
+        ["*/data/*", "real_cls/initial/*", "real_cls/initial_typiclust/*", "real_cls/duis/*"],
     ),
     "an encoder seed": (
         "datasets: {real_cls: {embedding: {encoder: {seeds: [0, 2]}}}}",
@@ -600,3 +605,27 @@ def test_embedding_framework_runs_on_the_same_round0_sets(ci_results):
         train = f["train"]
     scores = np.load(ci_results / "real_cls" / "typiclust_ssl" / "seed1" / "round0" / "scores.npz")
     np.testing.assert_array_equal(scores["features"], train[scores["unlabeled_idx"], 0])
+
+
+def test_a_cold_start_round_0_is_typiclust_on_the_seed_encoder(ci_results):
+    """config/ci.yaml's supervised cold-start arm: DUIS from a TypiClust first batch
+    chosen on run seed 1's encoder (no label), against DUIS from the random one."""
+    from spl_al.cold_start import first_batch
+
+    cold = json.loads((ci_results / "real_cls" / "initial_typiclust" / "seed1.json").read_text())
+    assert cold["chosen_by"]["strategy"] == "typiclust"
+    assert cold["chosen_by"]["encoder"]["encoder_seed"] == 0  # run seeds 1-2 read encoder 0
+    with np.load(
+        ci_results / "real_cls" / "embedding" / "encoders" / "seed0" / "embeddings.npz"
+    ) as f:
+        expected, _ = first_batch(f["train"][:, 0], cold["n_labeled"], seed=1, strategy="typiclust")
+    assert cold["pool_indices"] == expected.tolist()
+    arm = ci_results / "real_cls" / "duis_from_typiclust" / "seed1"
+    round1 = json.loads((arm / "round1" / "labeled.json").read_text())["pool_indices"]
+    assert set(cold["pool_indices"]) < set(round1)  # the arm's rounds go on from its round 0
+    round0 = json.loads((arm / "round0" / "metrics.json").read_text())
+    assert round0["n_labeled"] == cold["n_labeled"]
+    random0 = json.loads((ci_results / "real_cls" / "initial" / "seed1.json").read_text())
+    assert random0["pool_indices"] != cold["pool_indices"] and "chosen_by" not in random0
+    claims = pd.read_csv(ci_results / "real_cls" / "tables" / "claims.csv")
+    assert "typical_first_batch_typiclust" in set(claims["claim_id"])

@@ -35,13 +35,22 @@ EXPERIMENTS = {
     "levels": {"round": 2},
     "ablation": {"methods": ["syn_random", "duis"], "seeds": [1, 2, 3], "round": 2},
     "sensitivity": {"seeds": [1, 2, 3], "rounds": {"n_cand": 1, "alpha": 2, "n_variants": 2}},
+    "cold_start": {"methods": ["duis"], "starts": ["typiclust"], "seeds": [1, 2, 3], "rounds": 3},
 }
 SWEEPS = {
     "n_cand": {40: "duis_ncand40", 160: "duis"},
     "alpha": {0.25: "duis_alpha0.25", 0.5: "duis"},
     "n_variants": {1: "duis_m1", 4: "duis"},
 }
-METHODS = ["random", "duis", "syn_random", "duis_ncand40", "duis_alpha0.25", "duis_m1"]
+METHODS = [
+    "random",
+    "duis",
+    "syn_random",
+    "duis_ncand40",
+    "duis_alpha0.25",
+    "duis_m1",
+    "duis_from_typiclust",
+]
 
 
 def records():

@@ -8,15 +8,17 @@
 
 rule initial_set:
     input:
-        f"{RESULTS}/{{dataset}}/data/observed.npz",
+        unpack(initial_embeddings),
+        observed=f"{RESULTS}/{{dataset}}/data/observed.npz",
     output:
-        f"{RESULTS}/{{dataset}}/initial/seed{{seed}}.json",
+        f"{RESULTS}/{{dataset}}/{{initial_dir}}/seed{{seed}}.json",
     log:
-        f"{RESULTS}/logs/{{dataset}}/initial_seed{{seed}}.log",
+        f"{RESULTS}/logs/{{dataset}}/{{initial_dir}}_seed{{seed}}.log",
     benchmark:
-        f"{RESULTS}/benchmarks/{{dataset}}/initial_seed{{seed}}.tsv"
+        f"{RESULTS}/benchmarks/{{dataset}}/{{initial_dir}}_seed{{seed}}.tsv"
     wildcard_constraints:
         dataset=one_of(SIMULATED),
+        initial_dir=INITIAL_DIRS,
     conda:
         "../envs/spl-al.yaml"
     threads: 1
@@ -25,7 +27,7 @@ rule initial_set:
         runtime=res("initial_set", "runtime", 5),
     params:
         job=job_params(
-            al=lambda w: initial_set_params(w.dataset),
+            al=lambda w: initial_set_params(w.dataset, w.initial_dir),
         ),
         files=job_files,
     shell:
@@ -35,17 +37,18 @@ rule initial_set:
 rule train_initial:
     input:
         data=f"{RESULTS}/{{dataset}}/data/dataset.npz",
-        labeled=f"{RESULTS}/{{dataset}}/initial/seed{{seed}}.json",
+        labeled=f"{RESULTS}/{{dataset}}/{{initial_dir}}/seed{{seed}}.json",
     output:
-        model=f"{RESULTS}/{{dataset}}/initial/seed{{seed}}/m{{m}}/model.pt",
-        fit=f"{RESULTS}/{{dataset}}/initial/seed{{seed}}/m{{m}}/fit.json",
-        scores=f"{RESULTS}/{{dataset}}/initial/seed{{seed}}/m{{m}}/scores.npz",
+        model=f"{RESULTS}/{{dataset}}/{{initial_dir}}/seed{{seed}}/m{{m}}/model.pt",
+        fit=f"{RESULTS}/{{dataset}}/{{initial_dir}}/seed{{seed}}/m{{m}}/fit.json",
+        scores=f"{RESULTS}/{{dataset}}/{{initial_dir}}/seed{{seed}}/m{{m}}/scores.npz",
     log:
-        f"{RESULTS}/logs/{{dataset}}/initial_seed{{seed}}_m{{m}}_train.log",
+        f"{RESULTS}/logs/{{dataset}}/{{initial_dir}}_seed{{seed}}_m{{m}}_train.log",
     benchmark:
-        f"{RESULTS}/benchmarks/{{dataset}}/initial_seed{{seed}}_m{{m}}_train.tsv"
+        f"{RESULTS}/benchmarks/{{dataset}}/{{initial_dir}}_seed{{seed}}_m{{m}}_train.tsv"
     wildcard_constraints:
         dataset=one_of(SIMULATED),
+        initial_dir=INITIAL_DIRS,
         m=r"\d+",
     conda:
         "../envs/spl-al.yaml"

@@ -27,6 +27,7 @@ from spl_al.experiment.plan import (
     method_specs,
     sweep_table_spec,
 )
+from spl_al.cold_start import COLD_START, initial_strategy, is_cold_start
 
 RESULTS = config["results"]
 
@@ -45,6 +46,11 @@ HUMAN = [d for d in DATASETS if config["datasets"][d].get("oracle") == "human"]
 
 
 SIMULATED = [d for d in DATASETS if d not in HUMAN]
+
+
+# Folders of round-0 sets: initial/ (the dataset's al.initial_strategy) and initial_{S}/
+# (the round 0 that cold-start strategy S chooses for the cold-start experiment's arms).
+INITIAL_DIRS = r"initial(_(" + "|".join(COLD_START) + "))?"
 
 
 # Datasets made from raw photon captures (workflow/rules/captures.smk): their source
@@ -149,6 +155,18 @@ def runs(dataset):
     return dataset_runs(config, dataset)
 
 
+def initial_folder(wildcards):
+    """Where the method's round-0 set lies: results/{dataset}/initial/ for the
+    dataset's own `al.initial_strategy`, initial_{S}/ for a method whose round 0 S
+    chooses (a cold-start arm)."""
+    start = METHODS[wildcards.method].initial
+    if start is None or start == initial_strategy(
+        config["datasets"][wildcards.dataset]["al"]
+    ):
+        return f"{RESULTS}/{wildcards.dataset}/initial"
+    return f"{RESULTS}/{wildcards.dataset}/initial_{start}"
+
+
 def round_file(wildcards, r, name):
     """File ``name`` of round ``r`` of the job's run (``RUN``)."""
     run = RUN.format(
@@ -162,7 +180,7 @@ def labeled_in_round(wildcards, r):
     query. With a human oracle every round's set, round 0's too, is the one whose
     labels were given (accept_labels)."""
     if r == 0 and wildcards.dataset not in HUMAN:
-        return f"{RESULTS}/{wildcards.dataset}/initial/seed{wildcards.seed}.json"
+        return f"{initial_folder(wildcards)}/seed{wildcards.seed}.json"
     return round_file(wildcards, r, "labeled.json")
 
 

@@ -8,7 +8,8 @@
 
 rule initial_set_human:
     input:
-        f"{RESULTS}/{{dataset}}/data/observed.npz",
+        unpack(initial_embeddings),
+        observed=f"{RESULTS}/{{dataset}}/data/observed.npz",
         seed_labels=lambda w: config["datasets"][w.dataset].get("seed_labels") or [],
     output:
         f"{RESULTS}/{{dataset}}/initial/seed{{seed}}.json",

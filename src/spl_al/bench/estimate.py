@@ -75,7 +75,7 @@ def plan_counts(config: dict, dataset: str) -> dict:
     """What a dataset's experiments run: trainings and their images, forward-pass images
     (evaluation, scoring), queries and round-0 copies (jobs without training)."""
     # pandas on demand (importing this module does not load it)
-    from spl_al.experiment.plan import dataset_method, dataset_runs, labeled_at
+    from spl_al.experiment.plan import dataset_method, dataset_runs, labeled_at, start_of
 
     entry = config["datasets"][dataset]
     n_pool, n_test, _ = split_sizes(entry)
@@ -88,6 +88,7 @@ def plan_counts(config: dict, dataset: str) -> dict:
     initial = set()
     for (method, seed), rounds in dataset_runs(config, dataset).items():
         m = method_variants(config, dataset, method)
+        start = start_of(config, dataset, method)  # a cold-start arm has its own round 0
         spec = dataset_method(config, dataset, method)
         needs = get_strategy(spec.strategy, **spec.params).needs
         scored = 1 + int(config["datasets"][dataset]["variants"]["n"]) if needs & GROUP_NEEDS else 1
@@ -98,9 +99,9 @@ def plan_counts(config: dict, dataset: str) -> dict:
                 counts["forward_images"] += (n_pool - groups) * scored
             if r == 0:
                 counts["copies"] += 1
-                if (seed, m) in initial:
-                    continue  # one round-0 fit per seed and variants per group
-                initial.add((seed, m))
+                if (seed, m, start) in initial:
+                    continue  # one round-0 fit per seed, variants per group and start
+                initial.add((seed, m, start))
             n = groups * (1 + m)
             counts["trainings"] += 1
             c = warm_cfg if r > 0 else cfg
@@ -270,6 +271,22 @@ def probe_round_seconds(
     return (time.perf_counter() - started) / repeats
 
 
+def first_batch_seconds(start: str, *, n_pool: int, dim: int, size: int, repeats: int = 2):
+    """Seconds of one cold-start first batch (``spl_al.cold_start.first_batch``) of
+    ``size`` from ``n_pool`` random embeddings, the first run not counted."""
+    # the strategies on demand (importing this module does not load them)
+    import numpy as np
+
+    from spl_al.cold_start import first_batch
+
+    emb = np.random.default_rng(0).normal(size=(n_pool, dim)).astype(np.float32)
+    for i in range(1 + repeats):
+        if i == 1:
+            started = time.perf_counter()
+        first_batch(emb, size, seed=i, strategy=start, n_classes=11)
+    return (time.perf_counter() - started) / repeats
+
+
 def embedding_seconds(config: dict, dataset: str, *, steps: int = 10) -> dict:
     """Core seconds of a dataset's embedding framework (none without one) and its job
     count.
@@ -280,7 +297,8 @@ def embedding_seconds(config: dict, dataset: str, *, steps: int = 10) -> dict:
       large as the run's), its fixed cost (the 1-step run less a step: the pool's
       network input, the model's start), loading the dataset and embedding every image.
     - The probe runs: each planned method's rounds at its own timed round
-      (``probe_round_seconds``: the low-budget strategies cost 2-3x Random's), and the
+      (``probe_round_seconds``: the low-budget strategies cost 2-3x Random's), each
+      cold-start arm's first batch per run seed (``first_batch_seconds``), and the
       paired statistics over every seed.
     """
     # torch and pandas on demand (importing this module does not load them)
@@ -330,6 +348,18 @@ def embedding_seconds(config: dict, dataset: str, *, steps: int = 10) -> dict:
     probe_s = sum(
         rounds * probe_round_seconds(dataset_method(config, dataset, method), **sizes)
         for method, rounds in per_method.items()
+    )
+    starts: dict[str, int] = {}  # cold-start arms: a first batch chosen per run seed
+    for method, _seed in runs:
+        start = dataset_method(config, dataset, method).initial
+        if start:
+            starts[start] = starts.get(start, 0) + 1
+    probe_s += sum(
+        count
+        * first_batch_seconds(
+            start, n_pool=n_pool, dim=sizes["dim"], size=int(entry["al"]["initial"])
+        )
+        for start, count in starts.items()
     )
     report_s = REPORT_S_PER_RUN * len(runs)  # the paired statistics over every seed
     return {

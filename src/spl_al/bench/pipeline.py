@@ -20,12 +20,12 @@ _RULE_OF = (
     # a simulated oracle's round 0 copies the shared fit (train_initial): no training
     (re.compile(r"round0_train$"), "train, round 0"),
     (re.compile(r"round\d+_train$"), "train"),
-    (re.compile(r"initial_seed\d+_m\d+_train$"), "train_initial"),
+    (re.compile(r"initial(_[a-z]+)?_seed\d+_m\d+_train$"), "train_initial"),
     (re.compile(r"robustness_grid_shard\d+$"), "robustness_grid"),
     (re.compile(r"round\d+_query$"), "query"),
     (re.compile(r"variants_shard\d+$"), "variants_shard"),
     (re.compile(r"table_\w+$"), "table"),
-    (re.compile(r"initial_seed\d+$"), "initial_set"),
+    (re.compile(r"initial(_[a-z]+)?_seed\d+$"), "initial_set"),
     (re.compile(r"real_.+$"), "photon_real_capture"),
 )
 

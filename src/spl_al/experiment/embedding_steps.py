@@ -10,8 +10,9 @@ split, and queries with the method's strategy from what that classifier and the
 embeddings give (``probe_inputs``). A round takes milliseconds, so 100 seeds fit in
 one job.
 
-The round-0 sets are the seeds' own (``spl_al.pool.initial_labeled_set``, as the
-supervised framework's ``initial_set`` draws them), and a query's random stream is
+The round-0 sets are the seeds' own (``spl_al.cold_start.round0_set``, as the
+supervised framework's ``initial_set`` chooses them; a cold start reads the run seed's
+encoder), and a query's random stream is
 the supervised query's (``step_seed(seed, round, QUERY_STREAM)``): the two
 frameworks differ in the model alone.
 """
@@ -25,15 +26,17 @@ import numpy as np
 
 from spl_al import __version__
 from spl_al.atomic import atomic_write, read_json, write_json
+from spl_al.cold_start import STRATIFIED, initial_strategy, is_cold_start, round0_set
 from spl_al.data import SCENE_FIELDS, Dataset
 from spl_al.data.dataset import LEVELS
 from spl_al.deploy.card import file_sha256
+from spl_al.experiment.encoders import load_embeddings
 from spl_al.experiment.plan import MethodSpec, batch_of
 from spl_al.experiment.round_steps import QUERY_STREAM, step_seed
 from spl_al.experiment.step_args import ProbeRuns
 from spl_al.linear_probe import DEFAULT_C, LinearProbe, probe_inputs
 from spl_al.models.configured import save_model
-from spl_al.pool import Pool, initial_labeled_set
+from spl_al.pool import Pool
 from spl_al.strategies import check_picks, get
 from spl_al.strategies.duis import check_candidate_pool
 from spl_al.training.compute import LOCAL, Compute
@@ -145,21 +148,6 @@ def train_encoder(
     )
     write_json(card, out["card"])
     return card
-
-
-def load_embeddings(path, data) -> tuple[np.ndarray, np.ndarray]:
-    """(train (n_train, G, d), test (n_test, d)) of ``train_encoder``'s file, checked
-    against the dataset's split."""
-    with np.load(path, allow_pickle=False) as f:
-        if not (
-            np.array_equal(f["train_idx"], data.train_idx)
-            and np.array_equal(f["test_idx"], data.test_idx)
-        ):
-            raise ValueError(
-                f"{path}: embeddings of another train/test split than the dataset's; train "
-                "the encoder again (remove it and rerun)."
-            )
-        return f["train"], f["test"]
 
 
 @dataclass(frozen=True)
@@ -277,13 +265,16 @@ def _run(facts: ProbeData, spec: MethodSpec, *, which, al, rounds, c, n_variants
     strategy = get(spec.strategy, **spec.params)
     m_train = spec.train_variants(n_variants)
     n_train = len(facts.train)
-    stratified = bool(al.get("stratified_initial", False))
-    labeled = initial_labeled_set(
+    start = spec.initial or initial_strategy(al, f"datasets.{dataset}.al")
+    labeled, chosen = round0_set(
+        start,
         n_train,
         int(al["initial"]),
         seed,
-        labels=facts.train_labels if stratified else None,
-        stratified=stratified,
+        labels=facts.train_labels if start == STRATIFIED else None,
+        embeddings=facts.train[:, 0] if is_cold_start(start) else None,
+        n_classes=facts.n_classes,
+        where=f"datasets.{dataset}.al.initial",
     )
     pool = Pool(n_train, labeled)
     records = []
@@ -306,6 +297,8 @@ def _run(facts: ProbeData, spec: MethodSpec, *, which, al, rounds, c, n_variants
             )
         )
         records[-1].update(train_seconds=round(fit_seconds, 4), pool_indices=lab.tolist())
+        if r == 0:
+            records[-1]["initial"] = chosen  # how round 0 was chosen (and its decision)
         if r + 1 == rounds:
             break
         inputs = probe_inputs(

@@ -1,4 +1,5 @@
-"""Which self-supervised encoders a dataset trains, and which one each run seed reads.
+"""Which self-supervised encoders a dataset trains, which one each run seed reads, and
+their embeddings (``load_embeddings``).
 
 A dataset's ``embedding.encoder`` block holds the recipe (``spl_al.training.contrastive
 .EncoderConfig``) and two plan keys: ``seeds``, the encoder seeds (one encoder each, one
@@ -13,6 +14,12 @@ framework's statistics average the runs within each encoder and count encoders
 """
 
 from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from spl_al.atomic import read_json
 
 PLAN_KEYS = ("seeds", "block")
 """Keys of ``embedding.encoder`` that plan encoders rather than describe one."""
@@ -91,3 +98,31 @@ def check_encoders(dataset: str, entry: dict, run_seeds, embedding_seeds) -> Non
                 f"encoder number {number} (run seed s reads number (s - 1) // block, block "
                 f"{b}); use run seeds 1 to {b * len(seeds)} or add encoder seeds."
             )
+
+
+def load_embeddings(path, data) -> tuple[np.ndarray, np.ndarray]:
+    """(train (n_train, G, d), test (n_test, d)) of ``train_encoder``'s file, checked
+    against the dataset's split."""
+    with np.load(path, allow_pickle=False) as f:
+        if not (
+            np.array_equal(f["train_idx"], data.train_idx)
+            and np.array_equal(f["test_idx"], data.test_idx)
+        ):
+            raise ValueError(
+                f"{path}: embeddings of another train/test split than the dataset's; train "
+                "the encoder again (remove it and rerun)."
+            )
+        return f["train"], f["test"]
+
+
+def embeddings_source(path) -> dict:
+    """What a round-0 record says of the encoder behind an embeddings file: its seed
+    and weights' hash, from the card beside it (``train_encoder``'s layout), and the
+    file itself."""
+    card_path = Path(path).with_name("card.json")
+    card = read_json(card_path) if card_path.is_file() else {}
+    return {
+        "embeddings": str(path),
+        "encoder_seed": (card.get("encoder") or {}).get("seed"),
+        "weights_sha256": card.get("weights_sha256"),
+    }

@@ -4,8 +4,9 @@ A dataset with ``oracle: human`` runs the same rounds as a simulated one, except
 where labels enter:
 
 - round 0 (``initial_set``): the rows of ``seed_labels`` when it lists training
-  samples, else ``al.initial`` samples drawn at random (never stratified: that
-  would read labels nobody has given);
+  samples, else ``al.initial`` samples drawn at random or chosen without a label on
+  the dataset's encoder (``al.initial_strategy``: a cold start; never stratified:
+  that would read labels nobody has given);
 - every queried set (round 0's included) becomes a labeling batch
   (``label_batch``; from round 1 on its Label Studio tasks carry the predictions of
   the model that chose it), and ``accept_labels`` turns the filled label file (or
@@ -26,25 +27,35 @@ from pathlib import Path
 import numpy as np
 
 from spl_al.atomic import read_json, write_json
+from spl_al.cold_start import STRATIFIED, initial_strategy
 from spl_al.data import SCENE_FIELDS, Dataset
 from spl_al.data.label_files import listed_samples, load_labels, save_labels
 from spl_al.labeling import read_label_file, write_batch
-from spl_al.pool import initial_labeled_set
 from spl_al.training.compute import Compute
 
 
 def initial_set(
-    dataset_path, al: dict, *, seed: int, out_path, oracle: str = "simulated", seed_labels=None
+    dataset_path,
+    al: dict,
+    *,
+    seed: int,
+    out_path,
+    oracle: str = "simulated",
+    seed_labels=None,
+    embeddings=None,
 ) -> dict:
     """The round-0 labeled set: ``round_steps.initial_set`` for a simulated oracle; for a
-    human one the training rows of ``seed_labels`` (when it has any) or a random draw."""
+    human one the training rows of ``seed_labels`` (when it has any), else ``al.initial``
+    samples chosen by ``al.initial_strategy``: at random, or without a label on the
+    encoder's ``embeddings`` (a cold start)."""
     # pandas on demand (importing this module does not load it)
     from spl_al.experiment import round_steps
 
     if oracle != "human":
-        return round_steps.initial_set(dataset_path, al, seed, out_path)
+        return round_steps.initial_set(dataset_path, al, seed, out_path, embeddings=embeddings)
 
-    if al.get("stratified_initial"):
+    start = initial_strategy(al)
+    if start == STRATIFIED:
         raise ValueError(
             "config key 'al.stratified_initial': a human oracle has given no labels to "
             "stratify by; remove it or list the first samples in seed_labels."
@@ -52,10 +63,9 @@ def initial_set(
     dataset = Dataset.load(dataset_path)
     listed = listed_samples(seed_labels, dataset) if seed_labels else np.zeros(0, np.int64)
     if listed.size:
-        idx = listed
-    else:
-        idx = initial_labeled_set(len(dataset.train_idx), int(al["initial"]), int(seed))
-    return round_steps.write_initial_set(idx, seed, out_path)
+        return round_steps.write_initial_set(listed, seed, out_path)
+    idx, chosen = round_steps.choose_initial(dataset, start, al, seed, embeddings=embeddings)
+    return round_steps.write_initial_set(idx, seed, out_path, chosen=chosen)
 
 
 def _asked(record: dict) -> list[int]:
@@ -94,7 +104,8 @@ def label_batch(
     tagged ``model_version``; without them (round 0) the tasks have none.
     """
     dataset = Dataset.load(dataset_path, skip=SCENE_FIELDS)
-    asked = _asked(read_json(request_path))
+    request = read_json(request_path)
+    asked = _asked(request)
     probs = None
     if model_path is not None and asked:
         probs = batch_probabilities(dataset, asked, model_path, model_cfg or {})
@@ -106,12 +117,27 @@ def label_batch(
         export_file=export_file,
         probs=probs,
         model_version=model_version,
+        chosen_by=chosen_by_text(request.get("chosen_by")),
     )
     return {
         "samples": len(asked),
         "labels_file": str(labels_file),
         "pre_annotations": probs is not None,
     }
+
+
+def chosen_by_text(chosen: dict | None) -> str:
+    """How a round-0 batch was chosen, in one sentence ("" for a random draw)."""
+    if not chosen or chosen.get("strategy") in (None, "random"):
+        return ""
+    encoder = chosen.get("encoder") or {}
+    seed = encoder.get("encoder_seed")
+    which = f" (encoder seed {seed})" if seed is not None else ""
+    return (
+        f"These samples were chosen by {chosen['strategy']} on the dataset's self-supervised "
+        f"encoder{which}, trained on your unlabeled frames and their variants; no label was "
+        "read to choose them."
+    )
 
 
 def given_label_file(labels_file, export_file, batch_dir, n_asked: int) -> Path:

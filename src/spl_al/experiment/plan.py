@@ -12,8 +12,16 @@ A dataset's ``al`` entry sets the labeled counts: ``initial`` groups at round 0,
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
+from spl_al.cold_start import (
+    COLD_START,
+    RANDOM,
+    START_INFIX,
+    initial_strategy,
+    is_cold_start,
+    start_name,
+)
 from spl_al.data.sources import check_entry, is_synthesised
 from spl_al.experiment.encoders import check_encoders
 from spl_al.report.table_kinds import TABLE_KINDS, TableContext
@@ -54,7 +62,9 @@ class MethodSpec:
     images of a labeled group; ``n_variants`` (None = the dataset's M) is how many
     variants the method sees, for training and for scoring; ``features``: what a
     feature-only strategy selects on in the supervised framework, the trained model's
-    features ("model") or the dataset's self-supervised embedding ("embedding")."""
+    features ("model") or the dataset's self-supervised embedding ("embedding");
+    ``initial``: how the method's round 0 is chosen (``spl_al.cold_start``), None for
+    the dataset's ``al.initial_strategy`` (the cold-start experiment's arms set it)."""
 
     name: str
     strategy: str
@@ -62,6 +72,7 @@ class MethodSpec:
     use_variants: bool = False
     n_variants: int | None = None
     features: str = "model"
+    initial: str | None = None
 
     def variants_seen(self, n_variants: int) -> int:
         """M, the variants per group the method sees: its own ``n_variants`` (the M
@@ -74,8 +85,8 @@ class MethodSpec:
         return self.variants_seen(n_variants) if self.use_variants else 0
 
     def as_dict(self) -> dict:
-        """The method as a JSON-ready dict (``features`` only when not the default
-        "model": a job's recorded settings stay those of a method without it)."""
+        """The method as a JSON-ready dict (``features`` and ``initial`` only when not
+        their defaults: a job's recorded settings stay those of a method without them)."""
         out = {
             "strategy": self.strategy,
             "params": dict(self.params),
@@ -84,6 +95,8 @@ class MethodSpec:
         }
         if self.features != "model":
             out["features"] = self.features
+        if self.initial is not None:
+            out["initial"] = self.initial
         return out
 
 
@@ -184,6 +197,7 @@ def method_specs(config: dict) -> dict[str, MethodSpec]:
             use_variants=bool(entry.get("use_variants", False)),
             n_variants=entry.get("n_variants"),
             features=entry.get("features", "model"),
+            initial=entry.get("initial"),
         )
     for name, point in sweep_points(config).items():
         if name in specs:
@@ -214,6 +228,14 @@ def method_specs(config: dict) -> dict[str, MethodSpec]:
             specs[twin] = MethodSpec(
                 twin, spec.strategy, dict(spec.params), True, spec.n_variants, spec.features
             )
+    for entry in config["datasets"].values():
+        for fw in FRAMEWORKS:
+            block = framework_experiments(entry, fw).get("cold_start") or {}
+            for base in block.get("methods", []):
+                for start in block.get("starts", []):
+                    name = start_name(base, start)
+                    if base in specs and name not in specs:
+                        specs[name] = replace(specs[base], name=name, initial=start)
     return specs
 
 
@@ -264,17 +286,13 @@ def dataset_method(config: dict, dataset: str, name: str, specs=None) -> MethodS
     the paper's N_cand = 500 on its synthetic set) update the method's parameters."""
     specs = specs if specs is not None else method_specs(config)
     spec = specs[name]
-    override = (config["datasets"][dataset].get("method_params") or {}).get(name)
+    own = config["datasets"][dataset].get("method_params") or {}
+    override = own.get(name)
+    if override is None and spec.initial is not None and START_INFIX in name:
+        override = own.get(name.rsplit(START_INFIX, 1)[0])  # a cold-start arm: its base's
     if not override:
         return spec
-    return MethodSpec(
-        spec.name,
-        spec.strategy,
-        {**spec.params, **override},
-        spec.use_variants,
-        spec.n_variants,
-        spec.features,
-    )
+    return replace(spec, params={**spec.params, **override})
 
 
 def _base_value(config: dict, base: str, parameter: str):
@@ -444,6 +462,69 @@ def _check_framework_keys(dataset: str, entry: dict) -> None:
                 )
 
 
+def start_of(config: dict, dataset: str, method: str, specs=None) -> str:
+    """How ``method``'s round 0 is chosen on ``dataset``: its own ``initial``, else the
+    dataset's ``al.initial_strategy`` (``spl_al.cold_start``)."""
+    specs = specs if specs is not None else method_specs(config)
+    al = config["datasets"][dataset]["al"]
+    return specs[method].initial or initial_strategy(al, f"datasets.{dataset}.al")
+
+
+def _check_initial(config: dict, dataset: str, specs: dict) -> None:
+    """Round 0's strategy of every run can be followed: a cold start needs a
+    classification dataset with an ``embedding`` block (its encoder), a cold-start
+    experiment a simulated oracle and random round 0 to compare with, and ``al.initial``
+    at most the training pool (where the config fixes it)."""
+    entry = config["datasets"][dataset]
+    key = f"datasets.{dataset}.al"
+    own = initial_strategy(entry["al"], key)
+    starts = {own: f"{key}.initial_strategy"}
+    for fw in FRAMEWORKS:
+        where = "experiments" if fw == "supervised" else "embedding.experiments"
+        block = framework_experiments(entry, fw).get("cold_start")
+        if not block:
+            continue
+        where = f"datasets.{dataset}.{where}.cold_start"
+        bad = [s for s in block["starts"] if not is_cold_start(s)]
+        if bad:
+            raise ValueError(
+                f"config key '{where}.starts': {bad[0]!r} chooses no first batch on the "
+                f"embedding; expected some of {', '.join(COLD_START)}."
+            )
+        if entry.get("oracle") == "human":
+            raise ValueError(
+                f"config key '{where}': a human oracle labels one first batch per run, so "
+                "it cannot compare several; drop the experiment or use a simulated oracle."
+            )
+        if own != RANDOM:
+            raise ValueError(
+                f"config key '{where}' compares first batches with a random one, but "
+                f"'{key}.initial_strategy' is {own!r}; set it to random."
+            )
+        starts.update({s: f"{where}.starts" for s in block["starts"]})
+    for start, where in starts.items():
+        if not is_cold_start(start):
+            continue
+        if entry.get("task") != "classification":
+            raise ValueError(
+                f"config key '{where}': {start} chooses round 0 for a classification "
+                f"dataset, but {dataset} is a {entry.get('task')} dataset; use random."
+            )
+        if not entry.get("embedding"):
+            raise ValueError(
+                f"config key '{where}': {start} chooses round 0 on the dataset's "
+                f"self-supervised embedding, but {dataset} has no 'embedding' block; add "
+                "one (e.g. embedding: {encoder: {steps: 300}}) to train its encoder, or "
+                "use random."
+            )
+    n_train = train_pool_size(entry)
+    if n_train is not None and int(entry["al"]["initial"]) > n_train:
+        raise ValueError(
+            f"config key '{key}.initial' asks for {entry['al']['initial']} labeled groups at "
+            f"round 0, but the training pool holds {n_train}; lower it to at most {n_train}."
+        )
+
+
 def check_plan(config: dict) -> None:
     """Every method's strategy exists and takes its parameters; every method a
     dataset's experiments name must exist; rounds must be >= 1; a per-round batch list
@@ -454,6 +535,7 @@ def check_plan(config: dict) -> None:
     for dataset, entry in config["datasets"].items():
         check_entry(dataset, entry)
         _check_framework_keys(dataset, entry)
+        _check_initial(config, dataset, specs)
         runs = {}
         for framework in FRAMEWORKS:
             for key, rounds in dataset_runs(config, dataset, framework).items():
@@ -474,6 +556,10 @@ def check_plan(config: dict) -> None:
         ssl_seeds = [
             s
             for m, s in dataset_runs(config, dataset)
-            if m in specs and specs[m].features == "embedding"
+            if m in specs
+            and (
+                specs[m].features == "embedding"
+                or is_cold_start(start_of(config, dataset, m, specs))
+            )
         ]
         check_encoders(dataset, entry, [*embedding_seeds, *ssl_seeds], embedding_seeds)

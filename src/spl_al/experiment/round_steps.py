@@ -14,13 +14,15 @@ from dataclasses import dataclass
 import numpy as np
 
 from spl_al.atomic import atomic_write, read_json, write_json
+from spl_al.cold_start import RANDOM, STRATIFIED, initial_strategy, is_cold_start, round0_set
 from spl_al.data import SCENE_FIELDS, Dataset
 from spl_al.data.dataset import LEVELS
 from spl_al.data.label_files import labels_for
+from spl_al.experiment.encoders import embeddings_source, load_embeddings
 from spl_al.experiment.plan import MethodSpec
 from spl_al.experiment.step_args import FRESH, ModelFiles, RoundId, RoundStart
 from spl_al.linear_probe import embedding_features
-from spl_al.pool import Pool, initial_labeled_set, read_labeled
+from spl_al.pool import Pool, read_labeled
 from spl_al.strategies import StrategyContractError, StrategyInputs, check_picks, get
 from spl_al.strategies.duis import check_candidate_pool
 from spl_al.strategies.inputs import ARRAY_FIELDS, GROUP_NEEDS, NEEDS
@@ -39,23 +41,50 @@ def step_seed(seed: int, round_: int, stream: int) -> int:
 # ---------------------------------------------------------------- labeled sets
 
 
-def initial_set(dataset_path, al: dict, seed: int, out_path) -> dict:
-    """The round-0 labeled set of a seed, shared by every method (paired comparison).
+def initial_set(dataset_path, al: dict, seed: int, out_path, embeddings=None) -> dict:
+    """The round-0 labeled set of a seed, shared by every method that starts the same
+    way (paired comparison): ``al.initial_strategy`` (``spl_al.cold_start``).
 
-    Reads only the dataset's split sizes (and, when stratified, the training labels:
-    drawing the initial set is the oracle's job, not a strategy's).
+    Reads the dataset's split sizes; when stratified the training labels (drawing the
+    initial set is then the oracle's job, not a strategy's); for a cold start the
+    run seed's encoder ``embeddings`` (``train_encoder``'s file) and no label.
     """
     dataset = Dataset.load(dataset_path, skip=SCENE_FIELDS)
-    stratified = bool(al.get("stratified_initial", False)) and dataset.task == "classification"
-    labels = dataset.labels[dataset.train_idx] if stratified else None
-    idx = initial_labeled_set(
-        len(dataset.train_idx), int(al["initial"]), int(seed), labels=labels, stratified=stratified
+    start = initial_strategy(al)
+    if start == STRATIFIED and dataset.task != "classification":
+        start = RANDOM  # stratified_initial only stratifies classes
+    labels = dataset.labels[dataset.train_idx] if start == STRATIFIED else None
+    idx, chosen = choose_initial(dataset, start, al, seed, embeddings=embeddings, labels=labels)
+    return write_initial_set(idx, seed, out_path, chosen=chosen)
+
+
+def choose_initial(dataset, start: str, al: dict, seed: int, *, embeddings=None, labels=None):
+    """(training-split indices, how they were chosen) of ``start``'s round 0 on
+    ``dataset``: ``cold_start.round0_set`` given the ``labels`` a stratified draw reads,
+    or, for a cold start, the observed images' embeddings from the file ``embeddings``
+    (its encoder named in the record)."""
+    features = None
+    if is_cold_start(start):
+        if embeddings is None:
+            raise ValueError(f"a {start} round 0 reads the encoder's embeddings; none given.")
+        features = load_embeddings(embeddings, dataset)[0][:, 0]
+    idx, chosen = round0_set(
+        start,
+        len(dataset.train_idx),
+        int(al["initial"]),
+        int(seed),
+        labels=labels,
+        embeddings=features,
+        n_classes=len(dataset.classes),
     )
-    return write_initial_set(idx, seed, out_path)
+    if features is not None:
+        chosen["encoder"] = embeddings_source(embeddings)
+    return idx, chosen
 
 
-def write_initial_set(idx, seed: int, out_path) -> dict:
-    """Write a seed's round-0 labeled set (training-split indices) as its JSON record."""
+def write_initial_set(idx, seed: int, out_path, chosen: dict | None = None) -> dict:
+    """Write a seed's round-0 labeled set (training-split indices) as its JSON record;
+    ``chosen``: how it was chosen (``cold_start.round0_set``), kept when not random."""
     idx = np.asarray(idx)
     record = {
         "seed": int(seed),
@@ -63,6 +92,8 @@ def write_initial_set(idx, seed: int, out_path) -> dict:
         "n_labeled": int(idx.size),
         "pool_indices": np.sort(idx).tolist(),
     }
+    if chosen and chosen.get("strategy") != RANDOM:
+        record["chosen_by"] = chosen
     write_json(record, out_path)
     return record
 

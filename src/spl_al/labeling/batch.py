@@ -48,6 +48,7 @@ def write_batch(
     export_file=None,
     probs=None,
     model_version: str = "",
+    chosen_by: str = "",
 ) -> Path:
     """Write the labeling batch of the training-pool groups ``pool_indices`` to ``out_dir``.
 
@@ -57,7 +58,8 @@ def write_batch(
     JSON export may be saved instead (default: ``labels_file`` ending in ``.json``).
     ``probs``: the probabilities the current model gives each sample ((n, C), or
     (n, C, H, W) for segmentation), which become the Label Studio tasks'
-    pre-annotations, tagged ``model_version``; None writes tasks without them. The
+    pre-annotations, tagged ``model_version``; None writes tasks without them.
+    ``chosen_by``: a sentence on how the batch was chosen, for its README.txt. The
     folder appears complete or not at all (written beside it, then renamed).
     """
     out_dir = Path(out_dir)
@@ -98,7 +100,7 @@ def write_batch(
         "label_studio.json (the tasks"
         + (", with the model's predictions to correct" if probs is not None else "")
         + f"), label every task, export the project as JSON and save the export as "
-        f"{export_file}.\n",
+        f"{export_file}.\n" + (f"{chosen_by}\n" if chosen_by else ""),
         encoding="utf-8",
     )
     if out_dir.exists():

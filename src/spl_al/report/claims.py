@@ -59,6 +59,7 @@ import itertools
 import numpy as np
 import pandas as pd
 
+from spl_al.cold_start import split_start_name
 from spl_al.report.comparisons import comparison_text
 from spl_al.report.decomposition import PARTS
 from spl_al.report.display import ABLATION_LABELS, FULL_METHOD, METRIC_LABELS, method_label
@@ -107,6 +108,10 @@ areas under the curve, the matched-training family, the parts of the decompositi
 the paper's ablation does not order)."""
 
 DECOMPOSITION = PARTS
+
+FIRST_BATCH_CLAIM = "typical_first_batch"
+"""Claim id prefix of the cold-start experiment's claims, one per strategy S
+(``typical_first_batch_typiclust``, ...): this project's extension."""
 
 COLUMNS = (
     "claim_id",
@@ -379,6 +384,37 @@ def _dropquery_claim(cmp: pd.DataFrame) -> dict | None:
     )
 
 
+def _first_batch_claims(cmp: pd.DataFrame) -> list[dict]:
+    """Per cold-start strategy S: every method's arm whose round 0 S chose on the
+    embedding beats the same method from a random round 0, on the AUBC over every
+    round, round 0 included (this project's extension; ``report.comparisons.
+    cold_start_rows``)."""
+    rows = cmp[(cmp["experiment"] == "cold_start") & (cmp["point"] == "AUBC")]
+    out = []
+    for start in dict.fromkeys(rows["parameter"]):
+        mine = rows[rows["parameter"] == start]
+        family = _oriented(
+            mine, lambda r: r["method_a"] if split_start_name(r["method_a"]) else r["method_b"]
+        )
+        bases = [
+            b if split_start_name(a) else a
+            for a, b in zip(mine["method_a"], mine["method_b"], strict=True)
+        ]
+        span = mine["span"].iloc[0] if "span" in mine and mine["span"].iloc[0] else ""
+        out.append(
+            _all_beat(
+                f"{FIRST_BATCH_CLAIM}_{start}",
+                f"A first batch chosen by {method_label(start)} on the self-supervised "
+                f"embedding, without a label, beats a random one: AUBC over every round"
+                f"{f' ({span})' if span else ''}, round 0 included, for "
+                f"{', '.join(method_label(b) for b in dict.fromkeys(bases))} after it.",
+                "cold_start",
+                family,
+            )
+        )
+    return out
+
+
 def _pair(cmp: pd.DataFrame, experiment: str, a: str, b: str) -> pd.DataFrame:
     rows = cmp[cmp["experiment"] == experiment]
     pick = ((rows["method_a"] == a) & (rows["method_b"] == b)) | (
@@ -535,6 +571,7 @@ def claims(
         _low_budget_claim(cmp, families, framework),
         _dropquery_claim(cmp),
         *_decomposition_claims(cmp),
+        *_first_batch_claims(cmp),
         _m_claim(cmp),
         _ncand_claim(cmp),
         _alpha_claim(cmp),

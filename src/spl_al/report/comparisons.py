@@ -26,6 +26,7 @@ from collections.abc import Mapping
 import numpy as np
 import pandas as pd
 
+from spl_al.cold_start import start_name
 from spl_al.report.display import LEVEL_LABELS, METRIC_LABELS, format_ratio, method_label
 from spl_al.report.records import LEVELS
 from spl_al.report.stats import (
@@ -132,6 +133,40 @@ def budget_rows(d: pd.DataFrame, experiments: Mapping) -> list[dict]:
     curves = query_rounds(d[d["method"].isin(methods)], int(budget["rounds"]))
     area = aubc_per_seed(curves).rename(columns={"aubc": "value"})
     rows += _rows(area, methods, experiment="budget", point="AUBC", span=span_text(curves))
+    return rows
+
+
+def cold_start_arms(block: Mapping) -> list[tuple[str, str, str]]:
+    """(base, start, arm) of a cold-start experiment block, in its order: method
+    ``base`` with round 0 chosen at random, and ``arm`` (``X_from_S``) with round 0
+    chosen by ``start`` on the embedding."""
+    return [(b, s, start_name(b, s)) for b in block["methods"] for s in block["starts"]]
+
+
+def cold_start_rows(d: pd.DataFrame, experiments: Mapping) -> list[dict]:
+    """Each cold-start arm against its base method (round 0 random): at round 0, and
+    over the AUBC of every round, round 0 included (round 0 is what differs)."""
+    block = experiments.get("cold_start")
+    if not block:
+        return []
+    rounds = int(block["rounds"])
+    rows: list[dict] = []
+    for base, start, arm in cold_start_arms(block):
+        pair = d[d["method"].isin([base, arm]) & (d["round"] < rounds)]
+        if pair.empty:
+            continue
+        ratio = pair.loc[pair["round"] == 0, "ratio"].mean()
+        fields = {"experiment": "cold_start", "parameter": start}
+        rows += _rows(
+            _values(pair, [base, arm], 0),
+            [base, arm],
+            **fields,
+            point=f"round 0 ({format_ratio(ratio)})",
+            round=0,
+            n_labeled=_n_labeled(pair, 0),
+        )
+        area = aubc_per_seed(pair).rename(columns={"aubc": "value"})
+        rows += _rows(area, [base, arm], **fields, point="AUBC", span=span_text(pair))
     return rows
 
 

@@ -12,6 +12,8 @@ import re
 import zlib
 from numbers import Real
 
+from spl_al.cold_start import split_start_name
+
 METHOD_LABELS = {
     "badge": "BADGE",
     "entropy": "Entropy",
@@ -112,8 +114,12 @@ FALLBACK_COLORS = (
 
 
 def method_label(method: str, labels: dict[str, str] | None = None) -> str:
-    """Display name of a method; unknown names are shown as they are."""
-    return (labels or METHOD_LABELS).get(method, method)
+    """Display name of a method; unknown names are shown as they are. A cold-start arm
+    ``X_from_S`` reads "X from S" (its round 0 chosen by S)."""
+    labels = labels or METHOD_LABELS
+    if method not in labels and (arm := split_start_name(method)):
+        return f"{labels.get(arm[0], arm[0])} from {labels.get(arm[1], arm[1])}"
+    return labels.get(method, method)
 
 
 def _natural_key(name: str) -> tuple:

@@ -1,7 +1,7 @@
 """The table kinds of a dataset's experiments, each declared once.
 
 A kind is a key under a dataset's ``experiments`` (and ``embedding.experiments``):
-budget, levels, ablation, sensitivity. Its ``TableKind`` says everything the project
+budget, levels, ablation, sensitivity, cold_start. Its ``TableKind`` says everything the project
 knows of it, and every other place reads it from ``TABLE_KINDS``:
 
 - ``runs``: the (methods, seeds, rounds) it needs trained (``experiment.plan``, and
@@ -26,6 +26,7 @@ from dataclasses import dataclass, field
 import pandas as pd
 
 from spl_al.report import comparisons as cmp
+from spl_al.report.display import method_label
 from spl_al.report.records import one_dataset
 from spl_al.report.tables import ablation_table, budget_table, level_table, sensitivity_table
 
@@ -222,5 +223,45 @@ register(
         caption=lambda metric, _block: f"parameter sensitivity of DUIS: {metric} (%)",
         build=_sensitivity_build,
         rows=lambda d, ctx: cmp.sensitivity_rows(d, ctx.experiments, _for_m(ctx.sweeps)),
+    )
+)
+
+
+def _cold_start_methods(block: Mapping) -> list[str]:
+    """The cold-start table's rows: each base method, then its arms."""
+    out = []
+    for base in block["methods"]:
+        out += [base, *(arm for b, _s, arm in cmp.cold_start_arms(block) if b == base)]
+    return out
+
+
+def _cold_start_line(block: Mapping, _ctx: TableContext) -> str:
+    return (
+        f"cold_start: methods {', '.join(block['methods'])}, round 0 at random and chosen by "
+        f"{', '.join(block['starts'])} on the embedding; seeds {numbers_text(block['seeds'])}; "
+        f"{int(block['rounds'])} rounds"
+    )
+
+
+register(
+    TableKind(
+        name="cold_start",
+        title="Cold start",
+        runs=lambda block, _ctx: [(_cold_start_methods(block), block["seeds"], block["rounds"])],
+        describe=_cold_start_line,
+        caption=lambda metric, block: (
+            f"cold start: {metric} (%) vs labeling ratio when round 0 is drawn at random "
+            f"(rows {', '.join(method_label(m) for m in block['methods'])}) or chosen without "
+            "a label on the self-supervised embedding (rows 'X from S'), mean ± std over seeds"
+        ),
+        build=lambda records, ctx: budget_table(
+            records,
+            methods=_cold_start_methods(ctx.experiments["cold_start"]),
+            rounds=sorted(
+                r for r in set(records["round"]) if r < int(ctx.experiments["cold_start"]["rounds"])
+            ),
+            kind="cold_start",
+        ),
+        rows=lambda d, ctx: cmp.cold_start_rows(d, ctx.experiments),
     )
 )

@@ -170,6 +170,7 @@ def budget_table(
     rounds: Sequence[int] | None = None,
     labels: Mapping[str, str] | None = None,
     dataset: str | None = None,
+    kind: str = "budget",
 ) -> pd.DataFrame:
     """Metric per method (rows) x labeling budget (columns), mean and std over seeds.
 
@@ -177,7 +178,9 @@ def budget_table(
     by labeling ratio like the paper ("2.9%"); rows follow ``methods`` (default: every
     method of ``df`` in the paper's order, DUIS last). The paper's segmentation table.
     Round 0's column is labelled "(round 0)" and gets no leader mark: its labels are the
-    same for every method, so it says nothing about acquisition.
+    same for every method, so it says nothing about acquisition. ``kind`` names the
+    table: "cold_start" (the cold-start experiment's arms, whose round 0 differ) marks
+    round 0's leader too.
     """
     scale = _check_scale(metric_scale)
     full = one_dataset(df, dataset)
@@ -215,7 +218,7 @@ def budget_table(
                     col_pos=col_pos[n],
                 )
             )
-    return _finish(cells, "budget", full, n_expected, scale)
+    return _finish(cells, kind, full, n_expected, scale)
 
 
 def level_table(

@@ -1,11 +1,26 @@
 # Input functions of workflow/rules/al.smk: a round's files and settings.
 
 
-def initial_set_params(dataset):
-    """What a seed's round-0 draw reads of the dataset's `al`: its size and whether it
-    is stratified (not the batches or the ratio's denominator)."""
+def initial_set_params(dataset, folder="initial"):
+    """What a seed's round-0 draw reads of the dataset's `al`: its size and how it is
+    chosen (not the batches or the ratio's denominator). `folder`: initial_{S} holds
+    the round 0 that S chooses for a cold-start arm."""
     al = config["datasets"][dataset]["al"]
-    return {k: v for k, v in al.items() if k in ("initial", "stratified_initial")}
+    keys = ("initial", "stratified_initial", "initial_strategy")
+    if folder != "initial":
+        return {"initial": al["initial"], "initial_strategy": folder.removeprefix("initial_")}
+    return {k: v for k, v in al.items() if k in keys}
+
+
+def initial_embeddings(wildcards):
+    """A cold start's input: the embeddings of the run seed's encoder."""
+    folder = getattr(wildcards, "initial_dir", "initial")
+    al = initial_set_params(wildcards.dataset, folder)
+    if not is_cold_start(initial_strategy(al)):
+        return {}
+    entry = config["datasets"][wildcards.dataset]
+    eseed = encoder_of(entry, int(wildcards.seed))
+    return {"embeddings": encoder_file(wildcards.dataset, eseed, "embeddings.npz")}
 
 
 def labeled_input(wildcards):
@@ -27,7 +42,7 @@ def initial_fit(wildcards):
     """
     if int(wildcards.round) != 0 or wildcards.dataset in HUMAN:
         return {}
-    folder = f"{RESULTS}/{wildcards.dataset}/initial/seed{wildcards.seed}/m{initial_variants(wildcards)}"
+    folder = f"{initial_folder(wildcards)}/seed{wildcards.seed}/m{initial_variants(wildcards)}"
     return {
         "initial_model": f"{folder}/model.pt",
         "initial_fit": f"{folder}/fit.json",
