@@ -384,6 +384,11 @@ def _dropquery_claim(cmp: pd.DataFrame) -> dict | None:
     )
 
 
+def _and(words: list[str]) -> str:
+    """'a', 'a and b', 'a, b and c'."""
+    return words[0] if len(words) == 1 else f"{', '.join(words[:-1])} and {words[-1]}"
+
+
 def _first_batch_claims(cmp: pd.DataFrame) -> list[dict]:
     """Per cold-start strategy S: every method's arm whose round 0 S chose on the
     embedding beats the same method from a random round 0, on the AUBC over every
@@ -405,9 +410,9 @@ def _first_batch_claims(cmp: pd.DataFrame) -> list[dict]:
             _all_beat(
                 f"{FIRST_BATCH_CLAIM}_{start}",
                 f"A first batch chosen by {method_label(start)} on the self-supervised "
-                f"embedding, without a label, beats a random one: AUBC over every round"
-                f"{f' ({span})' if span else ''}, round 0 included, for "
-                f"{', '.join(method_label(b) for b in dict.fromkeys(bases))} after it.",
+                f"embedding, without a label, beats a random one, with "
+                f"{_and([method_label(b) for b in dict.fromkeys(bases)])} after it: AUBC "
+                f"over {span or 'every round'}, round 0 included.",
                 "cold_start",
                 family,
             )
