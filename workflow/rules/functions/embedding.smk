@@ -64,7 +64,8 @@ def embedding_outputs(dataset):
     base = f"{RESULTS}/{dataset}/embedding"
     kinds = table_names(exps, has_levels=has_levels(dataset))
     out = [f"{base}/tables/{t}.{ext}" for t in kinds for ext in ("csv", "md", "tex")]
-    out += [f"{base}/tables/summary.json"]
+    # no experiments (an encoder for a cold start alone): no runs to summarise
+    out += [f"{base}/tables/summary.json"] if kinds else []
     out += [
         encoder_file(dataset, e, "card.json")
         for e in encoder_seeds(config["datasets"][dataset])
