@@ -128,7 +128,7 @@ def test_every_table_has_its_rows_columns_and_ranges(ci_results):
 
     summary = json.loads((cls / "summary.json").read_text())
     assert sorted(summary["methods"]) == sorted(
-        set(CLS_BUDGET) | {"duis_ncand6", "duis_alpha0.25", "duis_m1"}
+        set(CLS_BUDGET) | {"duis_ncand6", "duis_alpha0.25", "duis_m1", "duis_from_typiclust"}
     )
     for stats in summary["methods"].values():
         assert 0 <= stats["auc"] <= 1 and 0 <= stats["final_mean"] <= 1
