@@ -8,7 +8,10 @@ def initial_set_params(dataset, folder="initial"):
     al = config["datasets"][dataset]["al"]
     keys = ("initial", "stratified_initial", "initial_strategy")
     if folder != "initial":
-        return {"initial": al["initial"], "initial_strategy": folder.removeprefix("initial_")}
+        return {
+            "initial": al["initial"],
+            "initial_strategy": folder.removeprefix("initial_"),
+        }
     return {k: v for k, v in al.items() if k in keys}
 
 
