@@ -68,7 +68,7 @@ def test_release_layout_runs_through_every_table(release, tmp_path):
         "only_datasets: [real_cls]\ndatasets:\n"
         f"  real_cls:\n    path: {release}\n    n_per_class: 3\n    experiments:\n"
         "      budget: {methods: [random, duis], matched: false, seeds: [1, 2], rounds: 2}\n"
-        "      ablation: null\n      sensitivity: null\n"
+        "      ablation: null\n      sensitivity: null\n      cold_start: null\n"
         "    embedding: null\n"  # the supervised tables are what this layout is about
     )
     results = tmp_path / "results"

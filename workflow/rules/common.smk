@@ -27,7 +27,6 @@ from spl_al.experiment.plan import (
     method_specs,
     sweep_table_spec,
 )
-from spl_al.cold_start import COLD_START, initial_strategy, is_cold_start
 
 RESULTS = config["results"]
 
@@ -46,11 +45,6 @@ HUMAN = [d for d in DATASETS if config["datasets"][d].get("oracle") == "human"]
 
 
 SIMULATED = [d for d in DATASETS if d not in HUMAN]
-
-
-# Folders of round-0 sets: initial/ (the dataset's al.initial_strategy) and initial_{S}/
-# (the round 0 that cold-start strategy S chooses for the cold-start experiment's arms).
-INITIAL_DIRS = r"initial(_(" + "|".join(COLD_START) + "))?"
 
 
 # Datasets made from raw photon captures (workflow/rules/captures.smk): their source
@@ -153,18 +147,6 @@ def dataset_params(dataset):
 def runs(dataset):
     """(method, seed) -> rounds for one dataset."""
     return dataset_runs(config, dataset)
-
-
-def initial_folder(wildcards):
-    """Where the method's round-0 set lies: results/{dataset}/initial/ for the
-    dataset's own `al.initial_strategy`, initial_{S}/ for a method whose round 0 S
-    chooses (a cold-start arm)."""
-    start = METHODS[wildcards.method].initial
-    if start is None or start == initial_strategy(
-        config["datasets"][wildcards.dataset]["al"]
-    ):
-        return f"{RESULTS}/{wildcards.dataset}/initial"
-    return f"{RESULTS}/{wildcards.dataset}/initial_{start}"
 
 
 def round_file(wildcards, r, name):

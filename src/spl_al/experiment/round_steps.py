@@ -41,7 +41,7 @@ def step_seed(seed: int, round_: int, stream: int) -> int:
 # ---------------------------------------------------------------- labeled sets
 
 
-def initial_set(dataset_path, al: dict, seed: int, out_path, embeddings=None) -> dict:
+def initial_set(dataset_path, al: dict, seed: int, out_path, *, embeddings=None) -> dict:
     """The round-0 labeled set of a seed, shared by every method that starts the same
     way (paired comparison): ``al.initial_strategy`` (``spl_al.cold_start``).
 

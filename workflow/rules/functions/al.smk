@@ -1,4 +1,9 @@
 # Input functions of workflow/rules/al.smk: a round's files and settings.
+from spl_al.cold_start import COLD_START, initial_strategy, is_cold_start
+
+# Folders of round-0 sets: initial/ (the dataset's al.initial_strategy) and initial_{S}/
+# (the round 0 that cold-start strategy S chooses for the cold-start experiment's arms).
+INITIAL_DIRS = r"initial(_(" + "|".join(COLD_START) + "))?"
 
 
 def initial_set_params(dataset, folder="initial"):
@@ -135,3 +140,15 @@ def selection_embeddings(wildcards):
     entry = config["datasets"][wildcards.dataset]
     eseed = encoder_of(entry, int(wildcards.seed))
     return {"embeddings": encoder_file(wildcards.dataset, eseed, "embeddings.npz")}
+
+
+def initial_folder(wildcards):
+    """Where the method's round-0 set lies: results/{dataset}/initial/ for the
+    dataset's own `al.initial_strategy`, initial_{S}/ for a method whose round 0 S
+    chooses (a cold-start arm)."""
+    start = METHODS[wildcards.method].initial
+    if start is None or start == initial_strategy(
+        config["datasets"][wildcards.dataset]["al"]
+    ):
+        return f"{RESULTS}/{wildcards.dataset}/initial"
+    return f"{RESULTS}/{wildcards.dataset}/initial_{start}"
