@@ -35,7 +35,6 @@ from spl_al.atomic import read_json, write_json
 from spl_al.data import SCENE_FIELDS, Dataset, storage
 from spl_al.data.observe import image_through_photons, observation_of, observe
 from spl_al.data.seeds import STREAM_VARIANT, sample_rng
-from spl_al.experiment.round_steps import resolved_for
 from spl_al.photon import Condition, PhotonScene
 from spl_al.plotting import fit_texts, new_figure
 from spl_al.report.stat_figures import difference_figure, heatmap_figure
@@ -204,7 +203,7 @@ def evaluate_grid(
     seed, with the precision its model was trained at.
     """
     # torch on demand (importing this module does not load it)
-    from spl_al.models.configured import load_model
+    from spl_al.models.configured import load_model, resolved_for
     from spl_al.training import evaluate
 
     model_paths = [model_paths] if isinstance(model_paths, str | Path) else list(model_paths)

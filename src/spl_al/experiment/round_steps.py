@@ -101,15 +101,6 @@ def write_initial_set(idx, seed: int, out_path, chosen: dict | None = None) -> d
 # ---------------------------------------------------------------- models
 
 
-def resolved_for(compute: Compute, dataset, model_cfg: dict) -> Compute:
-    """``compute`` resolved for ``dataset``'s configured model (``Compute.resolved``):
-    where a step decides, once, the device and what precision "auto" means there."""
-    # torch on demand (importing this module does not load it)
-    from spl_al.models import model_class
-
-    return compute.resolved(model_class(dataset.task, model_cfg.get("arch")))
-
-
 @dataclass
 class Fit:
     """A trained model and what its round records of it."""
@@ -255,7 +246,7 @@ def train_initial(
     ``n_variants`` variants.
     """
     # torch on demand (importing this module does not load it)
-    from spl_al.models.configured import save_model
+    from spl_al.models.configured import resolved_for, save_model
 
     compute.apply()
     dataset = Dataset.load(dataset_path, skip=SCENE_FIELDS)
@@ -343,9 +334,10 @@ def _check_fit(fit, fit_path, n_labeled, m, method_name) -> None:
 
 
 def _shared_round0(initial: ModelFiles, method: MethodSpec, pool_idx, out: ModelFiles):
-    """Round 0 from ``train_initial``'s files without torch: the fit record, the
-    weights copied, and the method's part of the shared scores; None when the shared
-    scores lack the variants this method scores on (it then scores itself)."""
+    """Round 0 from ``train_initial``'s files without torch: the fit record and the
+    method's part of the shared scores (the weights copied to ``out.model``); None
+    when the shared scores lack the variants this method scores on (it then scores
+    itself)."""
     import shutil
 
     fit = read_json(initial.record)
@@ -364,9 +356,8 @@ def _shared_round0(initial: ModelFiles, method: MethodSpec, pool_idx, out: Model
         )
     wanted = {f for need in needs for f in NEEDS[need]}
     arrays = {f: getattr(shared, f) for f in wanted if getattr(shared, f) is not None}
-    StrategyInputs(shared.unlabeled_idx, shared.labeled_idx, **arrays).save(out.scores)
     atomic_write(out.model, lambda tmp: shutil.copyfile(initial.model, tmp))
-    return fit
+    return fit, StrategyInputs(shared.unlabeled_idx, shared.labeled_idx, **arrays)
 
 
 # ---------------------------------------------------------------- round r
@@ -445,9 +436,11 @@ def train_round(
     method = MethodSpec(name=which.method, **{"params": {}, **setup["method"]})
     pool_idx = read_labeled(labeled_path)
     if initial is not None and initial.scores is not None:
-        shared = _shared_round0(initial, method, pool_idx, out)
-        if shared is not None:
-            _features_of(method, out.scores, embeddings, shared["dataset"]["n_variants"])
+        from_shared = _shared_round0(initial, method, pool_idx, out)
+        if from_shared is not None:
+            shared, inputs = from_shared
+            m = shared["dataset"]["n_variants"]
+            _features_of(method, inputs, embeddings, m).save(out.scores)
             fit = _fit_of_record(None, shared)
             extra = _fit_facts(fit, score_seconds=0.0, started=started)
             record = _metrics_record(
@@ -457,7 +450,7 @@ def train_round(
             return record
 
     # torch on demand (importing this module does not load it)
-    from spl_al.models.configured import save_model
+    from spl_al.models.configured import resolved_for, save_model
 
     compute.apply()
     dataset = Dataset.load(dataset_path, skip=SCENE_FIELDS)
@@ -473,32 +466,26 @@ def train_round(
         start=start,
     )
     save_model(fit.model, out.model)
+    scoring = time.perf_counter()
     if score:
-        scored = score_pool(
-            fit.model,
-            dataset,
-            labeled=pool_idx,
-            method=method,
-            out_path=out.scores,
-            compute=compute,
-        )
+        inputs = score_pool(fit.model, dataset, labeled=pool_idx, method=method, compute=compute)
     else:
         unlabeled = np.setdiff1d(np.arange(len(dataset.train_idx)), pool_idx)
-        StrategyInputs(unlabeled_idx=unlabeled, labeled_idx=pool_idx).save(out.scores)
-        scored = {"unlabeled": int(unlabeled.size), "seconds": 0.0}
-    _features_of(method, out.scores, embeddings, dataset.n_variants)
-    extra = _fit_facts(fit, score_seconds=scored["seconds"], started=started)
+        inputs = StrategyInputs(unlabeled_idx=unlabeled, labeled_idx=pool_idx)
+    score_seconds = round(time.perf_counter() - scoring, 3) if score else 0.0
+    _features_of(method, inputs, embeddings, dataset.n_variants).save(out.scores)
+    extra = _fit_facts(fit, score_seconds=score_seconds, started=started)
     facts = dataset_facts(dataset)
     record = _metrics_record(facts, setup, which, pool_idx.size, fit.metrics, extra)
     write_json(record, out.record)
     return record
 
 
-def _features_of(method: MethodSpec, scores_path, embeddings, n_variants: int) -> None:
-    """Swap the round's features for the self-supervised embedding's when the method
-    selects on it (``features: embedding``)."""
+def _features_of(method: MethodSpec, inputs, embeddings, n_variants: int) -> StrategyInputs:
+    """The round's strategy inputs, with their features swapped for the self-supervised
+    embedding's when the method selects on it (``features: embedding``)."""
     if method.features != "embedding":
-        return
+        return inputs
     if embeddings is None:
         raise ValueError(
             f"method {method.name!r} selects on the self-supervised embedding "
@@ -507,9 +494,8 @@ def _features_of(method: MethodSpec, scores_path, embeddings, n_variants: int) -
 
     with np.load(embeddings, allow_pickle=False) as f:
         train = f["train"]
-    inputs = StrategyInputs.load(scores_path)
     n_images = 1 + method.variants_seen(n_variants)
-    embedding_features(inputs, train, n_images=n_images).save(scores_path)
+    return embedding_features(inputs, train, n_images=n_images)
 
 
 def _fit_facts(fit: Fit, *, score_seconds: float, started: float) -> dict:
@@ -562,23 +548,21 @@ def score_pool(
     *,
     labeled: np.ndarray,
     method: MethodSpec,
-    out_path,
     compute: Compute = LOCAL,
-) -> dict:
+) -> StrategyInputs:
     """Forward passes over the unlabeled training groups: exactly what the method's
-    strategy needs (``strategy.needs``), saved for the query step, on ``compute``'s
-    device at ``MEASURE_PRECISION`` (fp32), whatever precision trained the model. No
-    labels are read: the strategy inputs are built from images and the model alone."""
+    strategy needs (``strategy.needs``), for the query step, on ``compute``'s device at
+    ``MEASURE_PRECISION`` (fp32), whatever precision trained the model. No labels are
+    read: the strategy inputs are built from images and the model alone."""
     # torch on demand (importing this module does not load it)
     from spl_al.scoring import compute_inputs
 
-    started = time.perf_counter()
     # What to compute depends on the strategy alone, not on its parameters.
     strategy = get(method.strategy, **method.params)
     unlabeled = np.setdiff1d(np.arange(len(dataset.train_idx)), labeled)
     m = _score_variants(method, strategy.needs, dataset.n_variants)
     depth, valid = dataset.groups(dataset.train_idx, n_variants=m)
-    inputs = compute_inputs(
+    return compute_inputs(
         model,
         strategy.needs,
         depth_m=depth,
@@ -586,37 +570,6 @@ def score_pool(
         unlabeled_idx=unlabeled,
         labeled_idx=labeled,
         compute=compute.measuring(),
-    )
-    inputs.save(out_path)
-    return {"unlabeled": int(unlabeled.size), "seconds": round(time.perf_counter() - started, 3)}
-
-
-def score_round(
-    dataset_path,
-    labeled_path,
-    *,
-    model_path,
-    setup: dict,
-    method_name: str,
-    out_path,
-    compute: Compute = LOCAL,
-) -> dict:
-    """``score_pool`` for a saved model: rescore a round without retraining."""
-    # torch on demand (importing this module does not load it)
-    from spl_al.models.configured import load_model
-
-    compute.apply()
-    dataset = Dataset.load(dataset_path, skip=SCENE_FIELDS)
-    compute = resolved_for(compute, dataset, setup["train"]["model"])
-    method = MethodSpec(name=method_name, **{"params": {}, **setup["method"]})
-    model = load_model(dataset, setup["train"]["model"], model_path)
-    return score_pool(
-        model,
-        dataset,
-        labeled=read_labeled(labeled_path),
-        method=method,
-        out_path=out_path,
-        compute=compute,
     )
 
 

@@ -6,7 +6,7 @@ from __future__ import annotations
 import torch
 
 from spl_al.atomic import atomic_write
-from spl_al.models import build_model, needs_grid
+from spl_al.models import build_model, model_class, needs_grid
 
 
 def model_for(dataset, model_cfg: dict):
@@ -17,6 +17,13 @@ def model_for(dataset, model_cfg: dict):
     if needs_grid(dataset.task, arch):
         cfg["grid"] = dataset.grid()
     return build_model(dataset.task, len(dataset.classes), arch=arch, **cfg)
+
+
+def resolved_for(compute, dataset, model_cfg: dict):
+    """``compute`` (a ``training.compute.Compute``) resolved for ``dataset``'s configured
+    model (``Compute.resolved``): where a step decides, once, the device and what
+    precision "auto" means there, before it builds or loads the model."""
+    return compute.resolved(model_class(dataset.task, model_cfg.get("arch")))
 
 
 def load_model(dataset, model_cfg: dict, weights):
