@@ -32,7 +32,7 @@ LAYERS: list[tuple[str, list[str]]] = [
     ("models", ["spl_al.models"]),
     ("data", ["spl_al.data"]),
     ("physics and geometry", ["spl_al.photon", "spl_al.scenes"]),
-    ("kit", ["spl_al.config", "spl_al.plotting"]),
+    ("kit", ["spl_al.config", "spl_al.frameworks", "spl_al.plotting"]),
     ("ground", ["spl_al", "spl_al.atomic", "spl_al.label_codes"]),
 ]
 

@@ -8,6 +8,11 @@ from snakemake.settings.types import DeploymentMethod, ExecMode
 
 from spl_al.config import dataset_precision, train_setup, training_notes
 from spl_al.data.sources import has_levels as source_has_levels, source_kind
+from spl_al.frameworks import (
+    EMBEDDING as EMBEDDING_FRAMEWORK,
+    SUPERVISED,
+    get_feature_space,
+)
 from spl_al.warm import client as warm_client
 from spl_al.experiment.overview import jobs_line, plan_text
 from spl_al.report.table_kinds import TABLE_KINDS, table_names
@@ -131,7 +136,7 @@ NOT_DATA = (
     "method_params",
     "variants",
     "experiments",
-    "embedding",
+    EMBEDDING_FRAMEWORK.block,
     "robustness",
     "resources",
 )
@@ -170,24 +175,6 @@ def has_levels(dataset):
     """Whether the dataset's images carry MSPPP levels (its source's trait, else its
     files: spl_al.data.sources.has_levels)."""
     return source_has_levels(config["datasets"][dataset])
-
-
-NO_LEVELS_NOTE = (
-    "files carry no MSPPP level; give `levels_file` to split by level "
-    "(the per-level table and curves are skipped)"
-)
-
-
-def dataset_notes(dataset):
-    """Notes of a dataset's summary: missing MSPPP levels, training steps that scale
-    with images (its tables carry the latter too)."""
-    notes = [] if has_levels(dataset) else [NO_LEVELS_NOTE]
-    return notes + training_notes(config, dataset)
-
-
-for _dataset in DATASETS:
-    for _note in dataset_notes(_dataset):
-        logger.info(f"{_dataset}: {_note}.")
 
 
 # How a job runs its script (the warm client), with its settings and files.

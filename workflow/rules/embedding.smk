@@ -15,9 +15,9 @@ rule encoder:
         card=f"{EMBEDDING}/encoders/seed{{eseed}}/card.json",
         embeddings=f"{EMBEDDING}/encoders/seed{{eseed}}/embeddings.npz",
     log:
-        f"{RESULTS}/logs/{{dataset}}/embedding/encoder_seed{{eseed}}.log",
+        f"{EMBEDDING_LOGS}/encoder_seed{{eseed}}.log",
     benchmark:
-        f"{RESULTS}/benchmarks/{{dataset}}/embedding/encoder_seed{{eseed}}.tsv"
+        f"{EMBEDDING_BENCHMARKS}/encoder_seed{{eseed}}.tsv"
     wildcard_constraints:
         dataset=one_of(EMBEDDED),
         eseed=r"\d+",
@@ -49,9 +49,9 @@ rule probe_runs:
     output:
         f"{EMBEDDING}/runs/{{method}}.json",
     log:
-        f"{RESULTS}/logs/{{dataset}}/embedding/{{method}}.log",
+        f"{EMBEDDING_LOGS}/{{method}}.log",
     benchmark:
-        f"{RESULTS}/benchmarks/{{dataset}}/embedding/{{method}}.tsv"
+        f"{EMBEDDING_BENCHMARKS}/{{method}}.tsv"
     wildcard_constraints:
         dataset=one_of(EMBEDDED),
     conda:
@@ -92,13 +92,13 @@ use rule table as embedding_table with:
         md=f"{EMBEDDING}/tables/{{table}}.md",
         tex=f"{EMBEDDING}/tables/{{table}}.tex",
     log:
-        f"{RESULTS}/logs/{{dataset}}/embedding/table_{{table}}.log",
+        f"{EMBEDDING_LOGS}/table_{{table}}.log",
     benchmark:
-        f"{RESULTS}/benchmarks/{{dataset}}/embedding/table_{{table}}.tsv"
+        f"{EMBEDDING_BENCHMARKS}/table_{{table}}.tsv"
     params:
         job=job_params(
             experiments=lambda w: experiments_of(
-                config, w.dataset, METHODS, "embedding"
+                config, w.dataset, METHODS, EMBEDDING_FRAMEWORK
             ),
             sweeps=lambda w: sweep_table_spec(
                 config, config["datasets"][w.dataset]["variants"]["n"]
@@ -113,9 +113,9 @@ use rule curves as embedding_curves with:
         metrics=lambda w: probe_runs_files(
             w.dataset,
             set(
-                experiments_of(config, w.dataset, METHODS, "embedding")["budget"][
-                    "methods"
-                ]
+                experiments_of(config, w.dataset, METHODS, EMBEDDING_FRAMEWORK)[
+                    "budget"
+                ]["methods"]
             ),
         ),
     output:
@@ -127,17 +127,17 @@ use rule curves as embedding_curves with:
         ),
         pdf=f"{EMBEDDING}/figures/curves.pdf",
     log:
-        f"{RESULTS}/logs/{{dataset}}/embedding/curves.log",
+        f"{EMBEDDING_LOGS}/curves.log",
     benchmark:
-        f"{RESULTS}/benchmarks/{{dataset}}/embedding/curves.tsv"
+        f"{EMBEDDING_BENCHMARKS}/curves.tsv"
     params:
         job=job_params(
-            methods=lambda w: experiments_of(config, w.dataset, METHODS, "embedding")[
-                "budget"
-            ]["methods"],
+            methods=lambda w: experiments_of(
+                config, w.dataset, METHODS, EMBEDDING_FRAMEWORK
+            )["budget"]["methods"],
             levels=False,
             families=lambda w: budget_families(
-                config, w.dataset, METHODS, "embedding"
+                config, w.dataset, METHODS, EMBEDDING_FRAMEWORK
             ),
         ),
         files=job_files,
@@ -153,17 +153,17 @@ use rule embedding_curves as embedding_level_curves with:
         ),
         pdf=f"{EMBEDDING}/figures/level_curves.pdf",
     log:
-        f"{RESULTS}/logs/{{dataset}}/embedding/level_curves.log",
+        f"{EMBEDDING_LOGS}/level_curves.log",
     benchmark:
-        f"{RESULTS}/benchmarks/{{dataset}}/embedding/level_curves.tsv"
+        f"{EMBEDDING_BENCHMARKS}/level_curves.tsv"
     params:
         job=job_params(
-            methods=lambda w: experiments_of(config, w.dataset, METHODS, "embedding")[
-                "budget"
-            ]["methods"],
+            methods=lambda w: experiments_of(
+                config, w.dataset, METHODS, EMBEDDING_FRAMEWORK
+            )["budget"]["methods"],
             levels=True,
             families=lambda w: budget_families(
-                config, w.dataset, METHODS, "embedding"
+                config, w.dataset, METHODS, EMBEDDING_FRAMEWORK
             ),
         ),
         files=job_files,
@@ -180,14 +180,14 @@ use rule summary as embedding_summary with:
             subcategory="Embedding framework",
         ),
     log:
-        f"{RESULTS}/logs/{{dataset}}/embedding/summary.log",
+        f"{EMBEDDING_LOGS}/summary.log",
     benchmark:
-        f"{RESULTS}/benchmarks/{{dataset}}/embedding/summary.tsv"
+        f"{EMBEDDING_BENCHMARKS}/summary.tsv"
     params:
         job=job_params(
             notes=lambda w: [] if has_levels(w.dataset) else [NO_LEVELS_NOTE],
             families=lambda w: budget_families(
-                config, w.dataset, METHODS, "embedding"
+                config, w.dataset, METHODS, EMBEDDING_FRAMEWORK
             ),
         ),
         files=job_files,
@@ -226,13 +226,13 @@ use rule stats as embedding_stats with:
         ),
         aubc_pdf=f"{EMBEDDING}/figures/aubc.pdf",
     log:
-        f"{RESULTS}/logs/{{dataset}}/embedding/stats.log",
+        f"{EMBEDDING_LOGS}/stats.log",
     benchmark:
-        f"{RESULTS}/benchmarks/{{dataset}}/embedding/stats.tsv"
+        f"{EMBEDDING_BENCHMARKS}/stats.tsv"
     params:
         job=job_params(
             experiments=lambda w: experiments_of(
-                config, w.dataset, METHODS, "embedding"
+                config, w.dataset, METHODS, EMBEDDING_FRAMEWORK
             ),
             sweeps=lambda w: sweep_table_spec(
                 config, config["datasets"][w.dataset]["variants"]["n"]

@@ -23,6 +23,7 @@ import argparse
 from pathlib import Path
 
 from spl_al.bench.timing import markdown_table
+from spl_al.frameworks import EMBEDDING
 
 KEY = ["experiment", "point", "parameter", "method_a", "method_b"]
 HEADLINES = (("syn_maxherding", "duis"), ("syn_random", "random"))
@@ -34,7 +35,7 @@ def _read(results: Path, dataset: str):
     # pandas on demand (importing this module does not load it)
     import pandas as pd
 
-    tables = results / dataset / "embedding" / "tables"
+    tables = Path(EMBEDDING.folder(results, dataset)) / "tables"
     for name in ("claims.csv", "comparisons.csv"):
         if not (tables / name).is_file():
             raise SystemExit(

@@ -41,6 +41,7 @@ from spl_al.bench.learnability import default_datasets, tuning_split
 from spl_al.bench.probe import probe_scores
 from spl_al.bench.timing import markdown_table
 from spl_al.data import Dataset
+from spl_al.frameworks import EMBEDDING
 from spl_al.linear_probe import LinearProbe
 from spl_al.pool import initial_labeled_set
 from spl_al.strategies.duis import margin_and_inconsistency
@@ -94,7 +95,7 @@ def run_recipe(
     from spl_al.experiment.plan import labeled_at
     from spl_al.training.contrastive import EncoderConfig, embed, encoder_health, train_encoder
 
-    embedding = entry["embedding"]
+    embedding = EMBEDDING.settings(entry)
     c = float((embedding.get("probe") or {}).get("c", 1.0))
     fit_idx, held_out = tuning_split(dataset)
     rounds = int(embedding["experiments"]["budget"]["rounds"])
@@ -262,7 +263,7 @@ def merged_tables(paths, baseline: str | None = None) -> str:
 
 
 def _datasets(args, config: dict, tmp: Path):
-    names = args.only or [k for k, v in config["datasets"].items() if v.get("embedding")]
+    names = args.only or [k for k, v in config["datasets"].items() if EMBEDDING.enabled(v)]
     if args.dataset_file:
         return [
             (n, Dataset.load(p), config["datasets"][n])
@@ -290,7 +291,7 @@ def main(argv: list[str] | None = None) -> int:
         for name, data, entry in _datasets(args, config, Path(tmp)):
             base = {
                 k: v
-                for k, v in ((entry.get("embedding") or {}).get("encoder") or {}).items()
+                for k, v in (EMBEDDING.settings(entry).get("encoder") or {}).items()
                 if k not in ("seed", "seeds", "block")
             }
             results = everything.setdefault(name, {})

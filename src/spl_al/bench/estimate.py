@@ -38,6 +38,7 @@ from spl_al.data import Dataset
 from spl_al.data.sources import is_synthesised
 from spl_al.data.variants import generate_variants
 from spl_al.experiment.data_steps import make_dataset
+from spl_al.frameworks import EMBEDDING
 from spl_al.linear_probe import LinearProbe, probe_inputs
 from spl_al.strategies import GROUP_NEEDS, get
 from spl_al.strategies import get as get_strategy
@@ -312,7 +313,7 @@ def embedding_seconds(config: dict, dataset: str, *, steps: int = 10) -> dict:
     from spl_al.training.contrastive import Encoder, EncoderConfig, train_encoder
 
     entry = config["datasets"][dataset]
-    embedding = entry.get("embedding")
+    embedding = EMBEDDING.settings(entry)
     if not embedding:
         return {"encoder_s": 0.0, "probe_s": 0.0, "jobs": 0}
     cfg = EncoderConfig.from_dict(encoder_recipe(entry))
@@ -339,7 +340,7 @@ def embedding_seconds(config: dict, dataset: str, *, steps: int = 10) -> dict:
     # 1.7 s for real_cls's 1,100 x 5 images of 64 x 64)
     load_s = 7.5e-8 * (n_pool + n_test) * (1 + m) * shape[0] * shape[1]
     per_encoder = fixed_s + cfg.steps * step_s + load_s + (n_pool * (1 + m) + n_test) * image_s
-    runs = dataset_runs(config, dataset, "embedding")
+    runs = dataset_runs(config, dataset, EMBEDDING)
     per_method: dict[str, int] = {}
     for (method, _seed), rounds in runs.items():
         per_method[method] = per_method.get(method, 0) + int(rounds)

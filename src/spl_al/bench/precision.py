@@ -31,6 +31,7 @@ from spl_al.bench.estimate import cpu_name
 from spl_al.bench.timing import markdown_table
 from spl_al.data import Dataset
 from spl_al.experiment.plan import batch_of, dataset_method
+from spl_al.frameworks import get_feature_space
 from spl_al.pool import read_labeled
 from spl_al.strategies import get
 from spl_al.strategies.inputs import GROUP_NEEDS
@@ -149,7 +150,7 @@ def pick_agreement(results: Path, dataset: str) -> list[list[str]]:
     rows = []
     for name in budget["methods"]:
         method = dataset_method(config, dataset, name)
-        if method.features == "embedding":
+        if get_feature_space(method.features).needs_encoder:
             continue  # selects on the fp32 self-supervised embedding: no model to rescore
         strategy = get(method.strategy, **method.params)
         m = method.variants_seen(data.n_variants) if strategy.needs & GROUP_NEEDS else 0

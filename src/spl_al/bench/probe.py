@@ -40,6 +40,7 @@ from spl_al.bench.learnability import (
 )
 from spl_al.bench.timing import markdown_table
 from spl_al.data import Dataset
+from spl_al.frameworks import EMBEDDING
 from spl_al.linear_probe import LinearProbe
 from spl_al.pool import initial_labeled_set
 
@@ -87,7 +88,7 @@ def compare(dataset, entry: dict, *, seeds=SEEDS, c_values=C_VALUES, cnn=True, l
     # pandas on demand (importing this module does not load it)
     from spl_al.experiment.plan import labeled_at
 
-    embedding = entry["embedding"]
+    embedding = EMBEDDING.settings(entry)
     fit_idx, held_out = tuning_split(dataset)
     embeddings, record = encode_fit_part(dataset, fit_idx, embedding.get("encoder") or {}, log=log)
     rounds = embedding["experiments"]["budget"]["rounds"]
@@ -192,7 +193,7 @@ def compare_segmentation(dataset, entry: dict, *, seeds=SEEDS, log=print):
     from spl_al.training.contrastive import EncoderConfig, train_encoder
 
     fit_idx, held_out = tuning_split(dataset)
-    cfg = EncoderConfig.from_dict((entry.get("embedding") or {}).get("encoder"))
+    cfg = EncoderConfig.from_dict(EMBEDDING.settings(entry).get("encoder"))
     depth, valid = dataset.groups(fit_idx)
     encoder, record = train_encoder(depth, valid, cfg=cfg, log=os.devnull)
     dense = dense_embeddings(encoder, dataset.depth_m, dataset.valid)
@@ -255,7 +256,7 @@ def main(argv: list[str] | None = None) -> int:
     entries = {
         k: v
         for k, v in config["datasets"].items()
-        if v.get("embedding") or v.get("task") == "segmentation"
+        if EMBEDDING.enabled(v) or v.get("task") == "segmentation"
     }
     with tempfile.TemporaryDirectory() as tmp:
         if args.datasets:
@@ -265,7 +266,7 @@ def main(argv: list[str] | None = None) -> int:
                 (n, Dataset.load(p), entries[n]) for n, p in zip(names, args.datasets, strict=True)
             ]
         else:
-            names = args.only or [k for k, v in entries.items() if v.get("embedding")]
+            names = args.only or [k for k, v in entries.items() if EMBEDDING.enabled(v)]
             cache = Path(tmp)
             named = [
                 (n, d, entries[n]) for n, d, _m, _f in default_datasets(args.config, names, cache)

@@ -39,6 +39,7 @@ from pathlib import Path
 
 from spl_al.atomic import atomic_write_text
 from spl_al.docs.markers import block, markers, replace_block
+from spl_al.frameworks import DEFAULT, EMBEDDING, framework_names, get_framework
 from spl_al.report.table_kinds import TABLE_KINDS
 
 COMMAND = "python -m spl_al.docs.pages"
@@ -350,7 +351,7 @@ def readme_block(
     page: str = BLOCK,
     earlier: str | None = None,
     *,
-    framework: str = "supervised",
+    framework: str = DEFAULT.name,
     drop: frozenset = frozenset(),
 ) -> str:
     """The README's compact results of a run (``page``): one AUBC table of every dataset
@@ -477,13 +478,13 @@ def copy_figures(
 
 
 def _generated_by(
-    page: str, *, kept: list[str], on_page: bool, stamp: str = "", framework: str = "supervised"
+    page: str, *, kept: list[str], on_page: bool, stamp: str = "", framework: str = DEFAULT.name
 ) -> str:
     """The comment line that opens a generated block (``on_page``: a docs page's, whose
     text outside the markers is hand-written): the command that wrote it and, with
     ``--keep-absent``, the datasets kept from the block before."""
     option = ("" if page == BLOCK else f" --page {page}") + (" --keep-absent" if kept else "")
-    option += "" if framework == "supervised" else f" --framework {framework}"
+    option += "" if framework == DEFAULT.name else f" --framework {framework}"
     if kept:
         stamp = f"{stamp[:-1]}; " if stamp else " ("
         stamp += f"{', '.join(_in_order(kept))} kept from an earlier run)"
@@ -500,7 +501,7 @@ def results_block(
     figures_dir: str = "figures",
     page: str = BLOCK,
     earlier: str | None = None,
-    framework: str = "supervised",
+    framework: str = DEFAULT.name,
     drop: frozenset = frozenset(),
 ) -> str:
     """docs/{page}.md's generated part: every dataset's tables, verdicts and figures.
@@ -597,13 +598,16 @@ DEFAULT_RESULTS_PAGE = """# Results
 """
 
 
-def framework_view(results: Path, folder: Path) -> Path:
-    """``folder`` made a results folder of the embedding framework's outputs: one link
-    per dataset, ``folder/{dataset}`` -> ``results/{dataset}/embedding``."""
+def framework_view(results: Path, folder: Path, framework=EMBEDDING) -> Path:
+    """``folder`` made a results folder of a framework's outputs kept in a subfolder of
+    each dataset's: one link per dataset, ``folder/{dataset}`` ->
+    ``results/{dataset}/{subfolder}`` (``FrameworkKind.folder``)."""
+    kind = get_framework(framework)
     folder.mkdir(parents=True, exist_ok=True)
-    for tables in sorted(Path(results).glob("*/embedding/tables/budget.csv")):
-        dataset_dir = tables.parents[2]
-        (folder / dataset_dir.name).symlink_to((dataset_dir / "embedding").resolve())
+    for dataset_dir in sorted(p for p in Path(results).iterdir() if p.is_dir()):
+        own = Path(kind.folder(results, dataset_dir.name))
+        if (own / "tables" / "budget.csv").is_file():
+            (folder / dataset_dir.name).symlink_to(own.resolve())
     return folder
 
 
@@ -614,19 +618,22 @@ def update(
     *,
     page: str = BLOCK,
     keep_absent: bool = False,
-    framework: str = "supervised",
+    framework: str = DEFAULT.name,
     drop=(),
 ) -> list[Path]:
-    """``update_pages`` of the run's ``framework``: "embedding" reads each dataset's
-    ``embedding/`` outputs (``framework_view``)."""
-    if framework == "supervised":
+    """``update_pages`` of the run's ``framework`` (``spl_al.frameworks``): one whose
+    outputs sit in a subfolder of each dataset's (the embedding framework's
+    ``embedding/``) is read through ``framework_view``."""
+    if framework not in framework_names():
+        raise ValueError(
+            f"--framework must be one of {', '.join(framework_names())}, got {framework!r}."
+        )
+    if not get_framework(framework).subfolder:
         return update_pages(results, docs, readme, page=page, keep_absent=keep_absent, drop=drop)
-    if framework != "embedding":
-        raise ValueError(f"--framework must be supervised or embedding, got {framework!r}.")
     import tempfile
 
     with tempfile.TemporaryDirectory() as tmp:
-        view = framework_view(results, Path(tmp) / Path(results).name)
+        view = framework_view(results, Path(tmp) / Path(results).name, framework)
         return update_pages(
             view, docs, readme, page=page, keep_absent=keep_absent, framework=framework, drop=drop
         )
@@ -639,7 +646,7 @@ def update_pages(
     *,
     page: str = BLOCK,
     keep_absent: bool = False,
-    framework: str = "supervised",
+    framework: str = DEFAULT.name,
     drop=(),
 ) -> list[Path]:
     """Copy the figures, rewrite docs/{page}.md's generated block and the README's block
@@ -705,9 +712,9 @@ def main(argv: list[str] | None = None) -> int:
     )
     parser.add_argument(
         "--framework",
-        default="supervised",
-        choices=("supervised", "embedding"),
-        help="embedding: the embedding framework's outputs (RESULTS/{dataset}/embedding/)",
+        default=DEFAULT.name,
+        choices=framework_names(),
+        help="the framework whose outputs to read (embedding: RESULTS/{dataset}/embedding/)",
     )
     args = parser.parse_args(argv)
     try:

@@ -34,6 +34,7 @@ from spl_al.experiment.encoders import load_embeddings
 from spl_al.experiment.plan import MethodSpec, batch_of
 from spl_al.experiment.round_steps import QUERY_STREAM, step_seed
 from spl_al.experiment.step_args import ProbeRuns
+from spl_al.frameworks import EMBEDDING
 from spl_al.linear_probe import DEFAULT_C, LinearProbe, probe_inputs
 from spl_al.models.configured import save_model
 from spl_al.pool import Pool
@@ -43,7 +44,7 @@ from spl_al.training.compute import LOCAL, Compute
 from spl_al.training.contrastive import EncoderConfig, embed, encoder_health
 from spl_al.training.contrastive import train_encoder as fit_encoder
 
-FRAMEWORK = "embedding"
+FRAMEWORK = EMBEDDING.name
 CARD_KEYS = ("dataset", "variants", "image_shape")
 
 

@@ -20,13 +20,14 @@ from pathlib import Path
 import numpy as np
 
 from spl_al.atomic import read_json
+from spl_al.frameworks import EMBEDDING
 
 PLAN_KEYS = ("seeds", "block")
 """Keys of ``embedding.encoder`` that plan encoders rather than describe one."""
 
 
 def _block(entry: dict) -> dict:
-    return dict((entry.get("embedding") or {}).get("encoder") or {})
+    return dict(EMBEDDING.settings(entry).get("encoder") or {})
 
 
 def encoder_recipe(entry: dict) -> dict:

@@ -12,6 +12,7 @@ from spl_al.config import is_standin
 from spl_al.data.sources import is_synthesised, source_kind
 from spl_al.experiment.encoders import encoder_seeds
 from spl_al.experiment.plan import experiments_of, labeled_at, sweep_table_spec
+from spl_al.frameworks import EMBEDDING
 from spl_al.report.table_kinds import TABLE_KINDS, TableContext
 
 DEFAULT_SHAPES = {"classification": (64, 64), "segmentation": (64, 256)}
@@ -48,8 +49,8 @@ def dataset_lines(config: dict, dataset: str) -> list[str]:
         f"{dataset}: {entry.get('task')}, source {_source(entry)}, {image_shape(entry)}, {oracle}"
     ]
     lines += _experiment_lines(config, dataset, experiments_of(config, dataset), human)
-    embedding = entry.get("embedding")
-    if embedding:
+    embedding = EMBEDDING.settings(entry)
+    if EMBEDDING.enabled(entry):
         steps = (embedding.get("encoder") or {}).get("steps", 300)
         k = len(encoder_seeds(entry))
         block = (embedding.get("encoder") or {}).get("block")
@@ -60,10 +61,10 @@ def dataset_lines(config: dict, dataset: str) -> list[str]:
             else f"one self-supervised encoder of {steps} steps"
         )
         lines.append(
-            f"  embedding framework (a linear classifier on frozen embeddings; {encoders}; "
-            f"results in .../{dataset}/embedding/):"
+            f"  {EMBEDDING.name} framework (a linear classifier on frozen embeddings; "
+            f"{encoders}; results in {EMBEDDING.folder('...', dataset)}/):"
         )
-        exps = experiments_of(config, dataset, framework="embedding")
+        exps = experiments_of(config, dataset, framework=EMBEDDING)
         lines += ["  " + line for line in _experiment_lines(config, dataset, exps, human)]
     return lines
 

@@ -24,6 +24,14 @@ from spl_al.cold_start import (
 )
 from spl_al.data.sources import check_entry, is_synthesised
 from spl_al.experiment.encoders import check_encoders
+from spl_al.frameworks import (
+    DEFAULT,
+    EMBEDDING,
+    MODEL_FEATURES,
+    framework_names,
+    get_feature_space,
+    get_framework,
+)
 from spl_al.report.table_kinds import TABLE_KINDS, TableContext
 from spl_al.scenes.objects import CATEGORIES
 from spl_al.strategies import get as get_strategy
@@ -38,22 +46,14 @@ FULL_METHOD = "duis"
 MATCHED_PREFIX = "syn_"
 
 FEATURE_NEEDS = frozenset({"features", "group_features", "labeled_features"})
-"""The strategy needs ``features: embedding`` may serve from the self-supervised embedding."""
-
-FRAMEWORKS = ("supervised", "embedding")
-"""How a round learns: ``supervised`` trains the configured network on the labeled
-groups (the paper's protocol; a dataset's ``experiments``); ``embedding`` fits a
-linear classifier on a frozen self-supervised encoder's embeddings (a dataset's
-``embedding.experiments``; ``spl_al.linear_probe``)."""
+"""The strategy needs another feature space (``features``, ``spl_al.frameworks``) may
+serve: those of features alone."""
 
 
-def framework_experiments(entry: dict, framework: str = "supervised") -> dict:
-    """A dataset entry's experiments (as configured) in ``framework``."""
-    if framework not in FRAMEWORKS:
-        raise ValueError(f"framework must be one of {list(FRAMEWORKS)}, got {framework!r}.")
-    if framework == "supervised":
-        return dict(entry.get("experiments") or {})
-    return dict((entry.get("embedding") or {}).get("experiments") or {})
+def framework_experiments(entry: dict, kind=DEFAULT) -> dict:
+    """A dataset entry's experiments (as configured) in framework ``kind`` (a
+    ``spl_al.frameworks`` kind or its name)."""
+    return get_framework(kind).experiments(entry)
 
 
 @dataclass(frozen=True)
@@ -61,8 +61,8 @@ class MethodSpec:
     """One method: ``strategy`` with ``params``; ``use_variants`` trains on all M + 1
     images of a labeled group; ``n_variants`` (None = the dataset's M) is how many
     variants the method sees, for training and for scoring; ``features``: what a
-    feature-only strategy selects on in the supervised framework, the trained model's
-    features ("model") or the dataset's self-supervised embedding ("embedding");
+    feature-only strategy selects on in the supervised framework, a feature space of
+    ``spl_al.frameworks`` (the trained model's, or the self-supervised embedding);
     ``initial``: how the method's round 0 is chosen (``spl_al.cold_start``), None for
     the dataset's ``al.initial_strategy`` (the cold-start experiment's arms set it)."""
 
@@ -71,7 +71,7 @@ class MethodSpec:
     params: dict = field(default_factory=dict, hash=False)
     use_variants: bool = False
     n_variants: int | None = None
-    features: str = "model"
+    features: str = MODEL_FEATURES.name
     initial: str | None = None
 
     def variants_seen(self, n_variants: int) -> int:
@@ -93,7 +93,7 @@ class MethodSpec:
             "use_variants": self.use_variants,
             "n_variants": self.n_variants,
         }
-        if self.features != "model":
+        if self.features != MODEL_FEATURES.name:
             out["features"] = self.features
         if self.initial is not None:
             out["initial"] = self.initial
@@ -142,7 +142,7 @@ def check_strategies(config: dict, specs: dict | None = None) -> None:
             )
     checked = set()
     for dataset in config["datasets"]:
-        names = [n for fw in FRAMEWORKS for n, _seed in dataset_runs(config, dataset, fw)]
+        names = [n for fw in framework_names() for n, _seed in dataset_runs(config, dataset, fw)]
         for name in dict.fromkeys(names):
             if name not in specs:
                 continue  # check_plan names it
@@ -170,11 +170,12 @@ def check_strategies(config: dict, specs: dict | None = None) -> None:
                 continue
             checked.add(key)
             scored = set(strategy.needs) - FEATURE_NEEDS
-            if spec.features == "embedding" and scored:
+            if spec.features != MODEL_FEATURES.name and scored:
                 raise ValueError(
-                    f"config key 'methods.{name}.features': embedding replaces a strategy's "
-                    f"features only, but {spec.strategy} also needs {sorted(scored)} of the "
-                    "trained model; use features: model."
+                    f"config key 'methods.{name}.features': {spec.features} replaces a "
+                    f"strategy's features only, but {spec.strategy} also needs "
+                    f"{sorted(scored)} of the trained model; use features: "
+                    f"{MODEL_FEATURES.name}."
                 )
 
 
@@ -196,7 +197,7 @@ def method_specs(config: dict) -> dict[str, MethodSpec]:
             params=params,
             use_variants=bool(entry.get("use_variants", False)),
             n_variants=entry.get("n_variants"),
-            features=entry.get("features", "model"),
+            features=get_feature_space(entry.get("features", MODEL_FEATURES.name)).name,
             initial=entry.get("initial"),
         )
     for name, point in sweep_points(config).items():
@@ -215,7 +216,7 @@ def method_specs(config: dict) -> dict[str, MethodSpec]:
     budgets = [
         framework_experiments(entry, fw).get("budget") or {}
         for entry in config["datasets"].values()
-        for fw in FRAMEWORKS
+        for fw in framework_names()
     ]
     for budget in budgets:
         if not budget.get("matched"):
@@ -229,7 +230,7 @@ def method_specs(config: dict) -> dict[str, MethodSpec]:
                 twin, spec.strategy, dict(spec.params), True, spec.n_variants, spec.features
             )
     for entry in config["datasets"].values():
-        for fw in FRAMEWORKS:
+        for fw in framework_names():
             block = framework_experiments(entry, fw).get("cold_start") or {}
             for base in block.get("methods", []):
                 for start in block.get("starts", []):
@@ -240,7 +241,7 @@ def method_specs(config: dict) -> dict[str, MethodSpec]:
 
 
 def budget_families(
-    config: dict, dataset: str, specs=None, framework: str = "supervised"
+    config: dict, dataset: str, specs=None, framework=DEFAULT
 ) -> dict[str, list[str]]:
     """The two families of a dataset's budget experiment, method names in run order.
 
@@ -263,7 +264,7 @@ def budget_families(
     return {"paper": paper, "matched": matched}
 
 
-def experiments_of(config: dict, dataset: str, specs=None, framework: str = "supervised") -> dict:
+def experiments_of(config: dict, dataset: str, specs=None, framework=DEFAULT) -> dict:
     """A dataset's experiments in ``framework`` as run: the budget experiment's
     ``methods`` hold the matched twins too (observed-only methods first, then the
     variant-trained ones, DUIS last) and ``families`` names both families
@@ -339,9 +340,7 @@ def sweep_table_spec(config: dict, dataset_m: int) -> dict[str, dict]:
     return table
 
 
-def dataset_runs(
-    config: dict, dataset: str, framework: str = "supervised"
-) -> dict[tuple[str, int], int]:
+def dataset_runs(config: dict, dataset: str, framework=DEFAULT) -> dict[tuple[str, int], int]:
     """(method, seed) -> number of rounds (trainings) the dataset's experiments in
     ``framework`` need."""
     entry = config["datasets"][dataset]
@@ -448,17 +447,20 @@ def _check_candidate_pools(config: dict, dataset: str, runs: dict, specs: dict) 
 
 def _check_framework_keys(dataset: str, entry: dict) -> None:
     """An experiment's optional ``framework`` key names the framework of where it sits."""
-    for framework in FRAMEWORKS:
-        prefix = "experiments" if framework == "supervised" else "embedding.experiments"
-        for kind, experiment in framework_experiments(entry, framework).items():
-            given = (experiment or {}).get("framework", framework)
-            if given != framework:
+    for name in framework_names():
+        kind = get_framework(name)
+        for table, experiment in kind.experiments(entry).items():
+            given = (experiment or {}).get("framework", name)
+            if given != name:
+                move = (
+                    f"move the experiment under '{get_framework(given).key}' or "
+                    if given in framework_names()
+                    else ""
+                )
                 raise ValueError(
-                    f"config key 'datasets.{dataset}.{prefix}.{kind}.framework': {given!r} "
-                    f"but experiments under '{prefix}' run the {framework} framework; "
-                    f"move the experiment under "
-                    f"'{'embedding.experiments' if given == 'embedding' else 'experiments'}' "
-                    "or drop the key."
+                    f"config key 'datasets.{dataset}.{kind.key}.{table}.framework': "
+                    f"{given!r} but experiments under '{kind.key}' run the {name} "
+                    f"framework; {move}drop the key."
                 )
 
 
@@ -479,12 +481,11 @@ def _check_initial(config: dict, dataset: str, specs: dict) -> None:
     key = f"datasets.{dataset}.al"
     own = initial_strategy(entry["al"], key)
     starts = {own: f"{key}.initial_strategy"}
-    for fw in FRAMEWORKS:
-        where = "experiments" if fw == "supervised" else "embedding.experiments"
+    for fw in framework_names():
         block = framework_experiments(entry, fw).get("cold_start")
         if not block:
             continue
-        where = f"datasets.{dataset}.{where}.cold_start"
+        where = f"datasets.{dataset}.{get_framework(fw).key}.cold_start"
         bad = [s for s in block["starts"] if not is_cold_start(s)]
         if bad:
             raise ValueError(
@@ -510,10 +511,10 @@ def _check_initial(config: dict, dataset: str, specs: dict) -> None:
                 f"config key '{where}': {start} chooses round 0 for a classification "
                 f"dataset, but {dataset} is a {entry.get('task')} dataset; use random."
             )
-        if not entry.get("embedding"):
+        if not EMBEDDING.enabled(entry):
             raise ValueError(
                 f"config key '{where}': {start} chooses round 0 on the dataset's "
-                f"self-supervised embedding, but {dataset} has no 'embedding' block; add "
+                f"self-supervised embedding, but {dataset} has no '{EMBEDDING.block}' block; add "
                 "one (e.g. embedding: {encoder: {steps: 300}}) to train its encoder, or "
                 "use random."
             )
@@ -537,7 +538,7 @@ def check_plan(config: dict) -> None:
         _check_framework_keys(dataset, entry)
         _check_initial(config, dataset, specs)
         runs = {}
-        for framework in FRAMEWORKS:
+        for framework in framework_names():
             for key, rounds in dataset_runs(config, dataset, framework).items():
                 runs[key] = max(runs.get(key, 0), rounds)
         for (method, _seed), rounds in runs.items():
@@ -552,13 +553,13 @@ def check_plan(config: dict) -> None:
                 )
         _check_batches(dataset, entry, max(runs.values(), default=0))
         _check_candidate_pools(config, dataset, runs, specs)
-        embedding_seeds = [s for _m, s in dataset_runs(config, dataset, "embedding")]
+        embedding_seeds = [s for _m, s in dataset_runs(config, dataset, EMBEDDING)]
         ssl_seeds = [
             s
             for m, s in dataset_runs(config, dataset)
             if m in specs
             and (
-                specs[m].features == "embedding"
+                get_feature_space(specs[m].features).needs_encoder
                 or is_cold_start(start_of(config, dataset, m, specs))
             )
         ]

@@ -5,24 +5,21 @@ from __future__ import annotations
 
 from spl_al.atomic import atomic_write, atomic_write_text, write_json
 from spl_al.config import dataset_precision, write_config
+from spl_al.frameworks import get_framework
 from spl_al.training.compute import Compute
-
-EMBEDDING_NOTE = (
-    "embedding framework: each round a linear classifier on a frozen self-supervised "
-    "encoder's embeddings, fp32"
-)
 
 
 def framework_notes(df) -> list[str]:
-    """The notes a table, figure or summary of these records carries for its framework:
-    in the embedding framework, what it is, and the encoders its runs read (how many,
-    seeds per encoder, which are doubtful)."""
+    """The notes a table, figure or summary of these records carries for its framework
+    (``FrameworkKind.note``): what it is, and where encoders are its statistics' unit,
+    the encoders its runs read (how many, seeds per encoder, which are doubtful)."""
     # pandas on demand (importing this module does not load it)
     from spl_al.report import framework_of
 
-    if framework_of(df) != "embedding":
+    kind = get_framework(framework_of(df))
+    if not kind.note:
         return []
-    return [EMBEDDING_NOTE, *encoder_notes(df)]
+    return [kind.note, *(encoder_notes(df) if kind.unit == "encoder" else [])]
 
 
 def encoder_notes(df) -> list[str]:
@@ -89,8 +86,9 @@ def make_curves(
 
     df = report.load_records(metrics_paths)
     df = df[df["method"].isin(methods)]
-    if framework_notes(df):
-        title = f"{title}, embedding framework (linear classifier, frozen encoder)"
+    kind = get_framework(report.framework_of(df))
+    if kind.short:
+        title = f"{title}, {kind.name} framework ({kind.short})"
     if per_level:
         report.plot_level_curves(df, png, path_pdf=pdf, methods=methods, title=title)
         return

@@ -21,6 +21,7 @@ from spl_al.data.label_files import labels_for
 from spl_al.experiment.encoders import embeddings_source, load_embeddings
 from spl_al.experiment.plan import MethodSpec
 from spl_al.experiment.step_args import FRESH, ModelFiles, RoundId, RoundStart
+from spl_al.frameworks import get_feature_space
 from spl_al.linear_probe import embedding_features
 from spl_al.pool import Pool, read_labeled
 from spl_al.strategies import StrategyContractError, StrategyInputs, check_picks, get
@@ -483,13 +484,14 @@ def train_round(
 
 def _features_of(method: MethodSpec, inputs, embeddings, n_variants: int) -> StrategyInputs:
     """The round's strategy inputs, with their features swapped for the self-supervised
-    embedding's when the method selects on it (``features: embedding``)."""
-    if method.features != "embedding":
+    embedding's when the method selects on it (a feature space that needs the encoder,
+    ``features: embedding``)."""
+    if not get_feature_space(method.features).needs_encoder:
         return inputs
     if embeddings is None:
         raise ValueError(
             f"method {method.name!r} selects on the self-supervised embedding "
-            "(features: embedding), but the round was given no embeddings file."
+            f"(features: {method.features}), but the round was given no embeddings file."
         )
 
     with np.load(embeddings, allow_pickle=False) as f:

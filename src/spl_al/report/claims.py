@@ -60,6 +60,14 @@ import numpy as np
 import pandas as pd
 
 from spl_al.cold_start import split_start_name
+from spl_al.frameworks import (
+    DEFAULT,
+    EMBEDDING_FEATURES,
+    MODEL_FEATURES,
+    framework_names,
+    get_feature_space,
+    get_framework,
+)
 from spl_al.report.comparisons import comparison_text
 from spl_al.report.decomposition import PARTS
 from spl_al.report.display import ABLATION_LABELS, FULL_METHOD, METRIC_LABELS, method_label
@@ -333,10 +341,12 @@ SSL_SUFFIX = "_ssl"
 
 
 def feature_space(method: str, framework: str) -> str:
-    """What a low-budget baseline selected on, in words."""
-    if framework == "embedding" or method.endswith(SSL_SUFFIX):
-        return "the frozen self-supervised embedding"
-    return "the trained CNN's penultimate features"
+    """What a low-budget baseline selected on, in words: the framework's own feature
+    space, else the self-supervised embedding for an X_ssl method, else the model's."""
+    space = get_framework(framework).features
+    if space is None:
+        space = (EMBEDDING_FEATURES if method.endswith(SSL_SUFFIX) else MODEL_FEATURES).name
+    return get_feature_space(space).words
 
 
 def _low_budget_claim(cmp: pd.DataFrame, families, framework: str) -> dict | None:
@@ -551,7 +561,7 @@ def claims(
     families: dict | None = None,
     *,
     levels_in_paper: bool = True,
-    framework: str = "supervised",
+    framework: str = DEFAULT.name,
     notes: dict | None = None,
 ) -> pd.DataFrame:
     """The paper's claims and this project's extensions judged on one dataset's
@@ -704,12 +714,9 @@ def render_claims_markdown(frame: pd.DataFrame, dataset: str | None = None) -> s
     precision = frame["precision"].iloc[0] if "precision" in frame and not frame.empty else ""
     has = isinstance(precision, str) and precision
     trained = f" (models trained in {precision})" if has else ""
-    framework = frame["framework"].iloc[0] if "framework" in frame and not frame.empty else ""
-    if framework == "embedding":
-        trained = (
-            " in the embedding framework (a linear classifier on a frozen self-supervised "
-            f"encoder's embeddings, {precision or 'fp32'})"
-        )
+    kind = frame["framework"].iloc[0] if "framework" in frame and not frame.empty else None
+    if kind in framework_names():
+        trained = get_framework(kind).claims_words(precision if has else "")
     lines = [f"**Claims checked on {name}{trained}.**"]
     if frame.empty:
         return (

@@ -31,6 +31,8 @@ from pathlib import Path
 
 import pandas as pd
 
+from spl_al.frameworks import DEFAULT, framework_names
+
 LEVELS = ("high", "medium", "low")
 """MSPPP levels of the test split, in display order."""
 
@@ -59,9 +61,6 @@ FRAME_COLUMNS = (
     "source",
 )
 
-# How a round's model learned (its record's ``framework``; absent: supervised):
-# ``spl_al.experiment.plan.FRAMEWORKS``.
-FRAMEWORKS = ("supervised", "embedding")
 
 # An embedding-framework run's encoder (its record's ``encoder_health``;
 # ``spl_al.training.contrastive.encoder_health``; a collapsed one never reaches a run).
@@ -101,8 +100,9 @@ def _check_optional(record: Mapping, bad) -> None:
             raise bad(key, "an integer >= 1")
     if record.get("precision", TRAINED_AT[0]) not in TRAINED_AT:
         raise bad("precision", f"one of {list(TRAINED_AT)}")
-    if record.get("framework", FRAMEWORKS[0]) not in FRAMEWORKS:
-        raise bad("framework", f"one of {list(FRAMEWORKS)}")
+    # How a round's model learned (absent: the default, supervised): spl_al.frameworks.
+    if record.get("framework", DEFAULT.name) not in framework_names():
+        raise bad("framework", f"one of {list(framework_names())}")
     encoder = record.get("encoder")
     if encoder is not None and not (_is_int(encoder) and encoder >= 0):
         raise bad("encoder", "an encoder seed, an integer >= 0")
@@ -178,7 +178,7 @@ def validate_record(record, where: str = "record") -> dict:
         "train_seconds": float(train_seconds) if train_seconds is not None else math.nan,
         **{key: float(v) if v is not None else math.nan for key, v in counts.items()},
         "precision": record.get("precision") or "",
-        "framework": record.get("framework") or FRAMEWORKS[0],
+        "framework": record.get("framework") or DEFAULT.name,
         # the encoder seed the run read (embedding framework), -1: none
         "encoder": int(encoder) if (encoder := record.get("encoder")) is not None else -1,
         "encoder_health": record.get("encoder_health") or "",
@@ -255,7 +255,7 @@ def _check_one_framework(frame: pd.DataFrame) -> None:
 
 def framework_of(df: pd.DataFrame) -> str:
     """The one framework of the frame's rounds."""
-    return str(df["framework"].iloc[0]) if len(df) else FRAMEWORKS[0]
+    return str(df["framework"].iloc[0]) if len(df) else DEFAULT.name
 
 
 def trained_at(df: pd.DataFrame) -> str:

@@ -129,12 +129,16 @@ def query_group(wildcards):
 def selects_on_embedding(dataset):
     """Whether a supervised run of the dataset selects on the embedding."""
     names = {m for m, _seed in runs(dataset)}
-    return any(METHODS[m].features == "embedding" for m in names if m in METHODS)
+    return any(
+        get_feature_space(METHODS[m].features).needs_encoder
+        for m in names
+        if m in METHODS
+    )
 
 
 def selection_embeddings(wildcards):
     """The train job's embeddings, when its method selects on them."""
-    if METHODS[wildcards.method].features != "embedding":
+    if not get_feature_space(METHODS[wildcards.method].features).needs_encoder:
         return {}
     # (made by the encoder rule, workflow/rules/embedding.smk): the run seed's own
     entry = config["datasets"][wildcards.dataset]

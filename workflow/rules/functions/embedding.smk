@@ -7,18 +7,21 @@ from spl_al.report.claims import encoder_claim_notes
 EMBEDDED = [
     d
     for d in DATASETS
-    if config["datasets"][d].get("embedding") or selects_on_embedding(d)
+    if EMBEDDING_FRAMEWORK.enabled(config["datasets"][d]) or selects_on_embedding(d)
 ]
-EMBEDDING = f"{RESULTS}/{{dataset}}/embedding"
+# The framework's folders, with the dataset a wildcard: outputs, logs, benchmarks.
+EMBEDDING = EMBEDDING_FRAMEWORK.folder(RESULTS, "{dataset}")
+EMBEDDING_LOGS = EMBEDDING_FRAMEWORK.folder(f"{RESULTS}/logs", "{dataset}")
+EMBEDDING_BENCHMARKS = EMBEDDING_FRAMEWORK.folder(f"{RESULTS}/benchmarks", "{dataset}")
 
 
 def embedding_entry(dataset):
-    return config["datasets"][dataset].get("embedding") or {}
+    return EMBEDDING_FRAMEWORK.settings(config["datasets"][dataset])
 
 
 def encoder_file(dataset, eseed, name):
     """One of encoder ``eseed``'s files: encoder.pt, card.json or embeddings.npz."""
-    return f"{RESULTS}/{dataset}/embedding/encoders/seed{eseed}/{name}"
+    return f"{EMBEDDING_FRAMEWORK.folder(RESULTS, dataset)}/encoders/seed{eseed}/{name}"
 
 
 def run_encoders(wildcards):
@@ -40,9 +43,9 @@ def probe_runs_encoders(wildcards):
 
 def probe_runs_files(dataset, methods=None):
     """The runs file of every method the dataset's embedding experiments run."""
-    names = {m for m, _seed in dataset_runs(config, dataset, "embedding")}
+    names = {m for m, _seed in dataset_runs(config, dataset, EMBEDDING_FRAMEWORK)}
     return [
-        f"{RESULTS}/{dataset}/embedding/runs/{m}.json"
+        f"{EMBEDDING_FRAMEWORK.folder(RESULTS, dataset)}/runs/{m}.json"
         for m in sorted(names)
         if methods is None or m in methods
     ]
@@ -50,35 +53,19 @@ def probe_runs_files(dataset, methods=None):
 
 def probe_run_params(wildcards):
     """Seeds and rounds of one method's runs (the longest any experiment needs)."""
-    runs = dataset_runs(config, wildcards.dataset, "embedding")
+    runs = dataset_runs(config, wildcards.dataset, EMBEDDING_FRAMEWORK)
     seeds = sorted(s for m, s in runs if m == wildcards.method)
     rounds = max(r for (m, _s), r in runs.items() if m == wildcards.method)
     return {"seeds": seeds, "rounds": rounds}
 
 
 def embedding_outputs(dataset):
-    """What `all` asks of a dataset's embedding framework."""
+    """What `all` asks of a dataset's embedding framework (spl_al.experiment.outputs)
+    and its encoders' cards."""
     if dataset not in EMBEDDED:
         return []
-    exps = embedding_entry(dataset).get("experiments") or {}
-    base = f"{RESULTS}/{dataset}/embedding"
-    kinds = table_names(exps, has_levels=has_levels(dataset))
-    out = [f"{base}/tables/{t}.{ext}" for t in kinds for ext in ("csv", "md", "tex")]
-    # no experiments (an encoder for a cold start alone): no runs to summarise
-    out += [f"{base}/tables/summary.json"] if kinds else []
-    out += [
+    out = framework_outputs(config, dataset, EMBEDDING_FRAMEWORK, results=RESULTS)
+    return out + [
         encoder_file(dataset, e, "card.json")
         for e in encoder_seeds(config["datasets"][dataset])
     ]
-    if "budget" in exps:
-        out += [f"{base}/figures/curves.{ext}" for ext in ("png", "pdf")]
-        out += [f"{base}/figures/aubc.{ext}" for ext in ("png", "pdf")]
-        if has_levels(dataset):
-            out += [f"{base}/figures/level_curves.{ext}" for ext in ("png", "pdf")]
-    if kinds:
-        out += [
-            f"{base}/tables/{name}.{ext}"
-            for name in ("comparisons", "claims", "decomposition")
-            for ext in ("csv", "md")
-        ]
-    return out

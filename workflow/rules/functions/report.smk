@@ -1,4 +1,5 @@
 # Input functions of workflow/rules/report.smk and the outputs `all` asks of a dataset.
+from spl_al.experiment.outputs import framework_outputs
 
 
 def metrics_files(dataset, methods=None):
@@ -19,26 +20,11 @@ def budget_metrics_files(dataset):
 
 
 def dataset_outputs(dataset):
-    tables = f"{RESULTS}/{dataset}/tables"
+    """What `all` asks of a dataset: its pictures, the supervised framework's outputs
+    (spl_al.experiment.outputs), robustness maps, model cards and exports."""
     figures = f"{RESULTS}/{dataset}/figures"
     out = [f"{figures}/contact_sheet.png", f"{figures}/variants_sheet.png"]
-    if runs(
-        dataset
-    ):  # a dataset in the embedding framework alone has no supervised run
-        out.append(f"{tables}/summary.json")
-    for table in dataset_tables(dataset):
-        out += [f"{tables}/{table}.{ext}" for ext in ("csv", "md", "tex")]
-    if "budget" in config["datasets"][dataset].get("experiments", {}):
-        out += [f"{figures}/curves.{ext}" for ext in ("png", "pdf")]
-        if has_levels(dataset):
-            out += [f"{figures}/level_curves.{ext}" for ext in ("png", "pdf")]
-        out += [f"{figures}/aubc.{ext}" for ext in ("png", "pdf")]
-    if dataset_tables(dataset):
-        out += [
-            f"{tables}/{name}.{ext}"
-            for name in ("comparisons", "claims")
-            for ext in ("csv", "md")
-        ]
+    out += framework_outputs(config, dataset, SUPERVISED, results=RESULTS)
     out += robustness_outputs(dataset)
     out += card_outputs(dataset) + export_outputs(dataset)
     return out
@@ -47,5 +33,23 @@ def dataset_outputs(dataset):
 def dataset_tables(dataset):
     """The tables a dataset's experiments ask for (spl_al.report.table_kinds); none
     that needs MSPPP levels for images without them."""
-    exps = config["datasets"][dataset].get("experiments", {})
+    exps = SUPERVISED.experiments(config["datasets"][dataset])
     return table_names(exps, has_levels=has_levels(dataset))
+
+
+NO_LEVELS_NOTE = (
+    "files carry no MSPPP level; give `levels_file` to split by level "
+    "(the per-level table and curves are skipped)"
+)
+
+
+def dataset_notes(dataset):
+    """Notes of a dataset's summary: missing MSPPP levels, training steps that scale
+    with images (its tables carry the latter too)."""
+    notes = [] if has_levels(dataset) else [NO_LEVELS_NOTE]
+    return notes + training_notes(config, dataset)
+
+
+for _dataset in DATASETS:
+    for _note in dataset_notes(_dataset):
+        logger.info(f"{_dataset}: {_note}.")
