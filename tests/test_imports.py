@@ -33,7 +33,7 @@ LAYERS: list[tuple[str, list[str]]] = [
     ("data", ["spl_al.data"]),
     ("physics and geometry", ["spl_al.photon", "spl_al.scenes"]),
     ("kit", ["spl_al.config", "spl_al.frameworks", "spl_al.plotting"]),
-    ("ground", ["spl_al", "spl_al.atomic", "spl_al.label_codes"]),
+    ("ground", ["spl_al", "spl_al.atomic", "spl_al.label_codes", "spl_al.layout"]),
 ]
 
 # (importer, imported): why the arrow still points up. Remove an entry with its arrow.

@@ -13,6 +13,7 @@ from spl_al.frameworks import (
     SUPERVISED,
     get_feature_space,
 )
+from spl_al import layout
 from spl_al.warm import client as warm_client
 from spl_al.experiment.overview import jobs_line, plan_text
 from spl_al.report.table_kinds import TABLE_KINDS, table_names
@@ -42,7 +43,7 @@ DATASETS = list(config["datasets"])
 METHODS = method_specs(config)
 
 
-RUN = f"{RESULTS}/{{dataset}}/{{method}}/seed{{seed}}"
+RUN = layout.run_folder(RESULTS, "{dataset}", "{method}", "{seed}")
 
 
 # Datasets whose labels come from a person (oracle: human) and from the data.

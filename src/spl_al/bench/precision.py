@@ -23,14 +23,16 @@ import os
 import subprocess
 import sys
 import time
+from functools import partial
 from pathlib import Path
 
 import pandas as pd
 
+from spl_al import layout
 from spl_al.bench.estimate import cpu_name
 from spl_al.bench.timing import markdown_table
 from spl_al.data import Dataset
-from spl_al.experiment.plan import batch_of, dataset_method
+from spl_al.experiment.plan import batch_of, dataset_method, round0_start
 from spl_al.frameworks import get_feature_space
 from spl_al.pool import read_labeled
 from spl_al.strategies import get
@@ -145,11 +147,12 @@ def pick_agreement(results: Path, dataset: str) -> list[list[str]]:
 
     config = yaml.safe_load((results / "config.yaml").read_text())
     entry = config["datasets"][dataset]
-    data = Dataset.load(results / dataset / "data" / "dataset.npz")
+    data = Dataset.load(layout.data_file(results, dataset))
     budget = entry["experiments"]["budget"]
     rows = []
     for name in budget["methods"]:
         method = dataset_method(config, dataset, name)
+        start = round0_start(config, dataset, name)
         if get_feature_space(method.features).needs_encoder:
             continue  # selects on the fp32 self-supervised embedding: no model to rescore
         strategy = get(method.strategy, **method.params)
@@ -158,15 +161,15 @@ def pick_agreement(results: Path, dataset: str) -> list[list[str]]:
         shares = []
         for seed in budget["seeds"]:
             for r in range(int(budget["rounds"]) - 1):
-                run = results / dataset / name / f"seed{seed}"
+                round_file = partial(layout.round_file, results, dataset, name, seed, r)
                 labeled_path = (
-                    run / f"round{r}" / "labeled.json"
+                    round_file("labeled.json")
                     if r
-                    else results / dataset / "initial" / f"seed{seed}.json"
+                    else layout.initial_file(results, dataset, seed, start)
                 )
                 labeled = read_labeled(labeled_path)
                 unlabeled = np.setdiff1d(np.arange(len(data.train_idx)), labeled)
-                model = load_model(data, entry["train"]["model"], run / f"round{r}" / "model.pt")
+                model = load_model(data, entry["train"]["model"], round_file("model.pt"))
                 picks = []
                 for precision in PRECISIONS:
                     inputs = compute_inputs(

@@ -40,6 +40,9 @@ from pathlib import Path
 from spl_al.atomic import atomic_write_text
 from spl_al.docs.markers import block, markers, replace_block
 from spl_al.frameworks import DEFAULT, EMBEDDING, framework_names, get_framework
+from spl_al.layout import figure_file, table_file
+from spl_al.report.claims import AGAINST, CONTRADICTED, SUPPORTED, VERDICTS
+from spl_al.report.display import METRIC_WORDS
 from spl_al.report.table_kinds import TABLE_KINDS
 
 COMMAND = "python -m spl_al.docs.pages"
@@ -53,16 +56,17 @@ FIGURES = (
     ("aubc", "aubc", "area under the budget curve per method: every seed, mean, 95% interval"),
     ("robustness_diff", "robustness_diff", "DUIS minus the best baseline over MSPPP x SBR"),
 )
-METRIC_NAMES = {"accuracy": "accuracy", "miou": "mIoU"}
-# claims.csv's verdicts, in the order a sentence names them (spl_al.report.claims.VERDICTS)
-VERDICTS = (
-    "supported",
-    "contradicted",
-    "seeds agree (untested)",
-    "seeds against (untested)",
-    "inconclusive",
-)
-NAMED = ("supported", "contradicted", "seeds against (untested)")
+# claims.csv's verdicts a sentence names one by one (all are counted, in VERDICTS' order)
+NAMED = (SUPPORTED, CONTRADICTED, AGAINST)
+
+
+def _table(results: Path, dataset: str, name: str) -> Path:
+    """A table of a dataset in a results folder (``spl_al.layout``)."""
+    return Path(table_file(results / dataset, name))
+
+
+def _figure(results: Path, dataset: str, name: str) -> Path:
+    return Path(figure_file(results / dataset, name))
 
 
 def _in_order(names) -> list[str]:
@@ -73,7 +77,7 @@ def _in_order(names) -> list[str]:
 
 def datasets(results: Path) -> list[str]:
     """Datasets of a results folder: the folders that hold tables/budget.csv."""
-    return _in_order(p.parent.parent.name for p in results.glob("*/tables/budget.csv"))
+    return _in_order(p.parent.parent.name for p in results.glob(table_file("*", "budget.csv")))
 
 
 def _named_chunks(block: str, opens) -> dict[str, str]:
@@ -166,13 +170,13 @@ def _cell(row: dict, decimals: int = 1) -> str:
 
 
 def _summary(results: Path, dataset: str) -> dict:
-    path = results / dataset / "tables" / "summary.json"
+    path = _table(results, dataset, "summary.json")
     return json.loads(path.read_text()) if path.exists() else {}
 
 
 def _metric(budget: list[dict]) -> str:
     name = budget[0].get("metric", "") if budget else ""
-    return METRIC_NAMES.get(name, name)
+    return METRIC_WORDS.get(name, name)
 
 
 def _is_standin(budget: list[dict]) -> bool:
@@ -215,7 +219,7 @@ def compact_table(results: Path, dataset: str) -> list[str]:
     """Budget columns per method and the AUBC over the query rounds with its 95%
     interval, as Markdown lines; the matched-training family first, then the paper's
     comparison (DUIS in both)."""
-    budget = _rows(results / dataset / "tables" / "budget.csv")
+    budget = _rows(_table(results, dataset, "budget.csv"))
     summary = _summary(results, dataset)
     scale = _num(budget[0].get("scale", 100)) if budget else 100.0
     cols = sorted({(int(r["col_pos"]), r["col"]) for r in budget})
@@ -242,7 +246,7 @@ def compact_table(results: Path, dataset: str) -> list[str]:
 
 def claims(results: Path, dataset: str) -> list[dict]:
     """The rows of a dataset's claims.csv (none when the run made no claims)."""
-    path = results / dataset / "tables" / "claims.csv"
+    path = _table(results, dataset, "claims.csv")
     return _rows(path) if path.exists() else []
 
 
@@ -283,7 +287,7 @@ def _seeds(summary: dict, budget: list[dict]) -> str:
 
 
 def _heading(results: Path, dataset: str) -> str:
-    budget = _rows(results / dataset / "tables" / "budget.csv")
+    budget = _rows(_table(results, dataset, "budget.csv"))
     summary = _summary(results, dataset)
     text = f"{_metric(budget)} (%), mean ± std over {_seeds(summary, budget)}"
     if _is_standin(budget):
@@ -293,7 +297,7 @@ def _heading(results: Path, dataset: str) -> str:
 
 def _column(results: Path, dataset: str) -> Column:
     """A dataset's column of the AUBC overview, rows in its families' order."""
-    budget = _rows(results / dataset / "tables" / "budget.csv")
+    budget = _rows(_table(results, dataset, "budget.csv"))
     summary = _summary(results, dataset)
     scale = _num(budget[0].get("scale", 100)) if budget else 100.0
     order = sorted({(int(r["row_pos"]), r["row"], r["method"]) for r in budget})
@@ -367,7 +371,7 @@ def readme_block(
     lines += ["**Area under the budget curve over the query rounds** (%) [95% CI]:", ""]
     lines += [*aubc_overview(results, kept), ""]
     for dataset in present:
-        budget = _rows(results / dataset / "tables" / "budget.csv")
+        budget = _rows(_table(results, dataset, "budget.csv"))
         about = _seeds(_summary(results, dataset), budget)
         if _is_standin(budget):
             about += "; synthetic stand-in for real data"
@@ -382,7 +386,7 @@ def readme_block(
 
 
 def _md_table(results: Path, dataset: str, name: str) -> str | None:
-    path = results / dataset / "tables" / f"{name}.md"
+    path = _table(results, dataset, f"{name}.md")
     return path.read_text().strip() if path.exists() else None
 
 
@@ -406,7 +410,7 @@ def _dataset_shown(results: Path, dataset: str) -> str:
 
 
 def _resolved_comparisons(results: Path, dataset: str) -> list[str]:
-    path = results / dataset / "tables" / "comparisons.csv"
+    path = _table(results, dataset, "comparisons.csv")
     if not path.exists():
         return []
     rows = _rows(path)
@@ -433,7 +437,7 @@ def _resolved_comparisons(results: Path, dataset: str) -> list[str]:
 
 
 def _robustness(results: Path, dataset: str) -> list[str]:
-    path = results / dataset / "tables" / "robustness_diff.csv"
+    path = _table(results, dataset, "robustness_diff.csv")
     if not path.exists():
         return []
     rows = _rows(path)
@@ -458,7 +462,7 @@ def _figures_of(results: Path, dataset: str) -> list[tuple[str, str]]:
     return [
         (name, caption)
         for source, name, caption in FIGURES
-        if (results / dataset / "figures" / f"{source}.png").exists()
+        if (_figure(results, dataset, f"{source}.png")).exists()
     ]
 
 
@@ -472,7 +476,7 @@ def copy_figures(
         for name, caption in _figures_of(results, dataset):
             figures.mkdir(parents=True, exist_ok=True)
             dest = figures / figure_name(dataset, name, page)
-            shutil.copyfile(results / dataset / "figures" / f"{sources[name]}.png", dest)
+            shutil.copyfile(_figure(results, dataset, f"{sources[name]}.png"), dest)
             copied.setdefault(dataset, []).append((dest.name, caption))
     return copied
 
@@ -509,7 +513,7 @@ def results_block(
     sections (``--keep-absent``), but those in ``drop``."""
     figures = figures or {}
     stamp = ""
-    stamps = [p.stat().st_mtime for p in results.glob("*/tables/summary.json")]
+    stamps = [p.stat().st_mtime for p in results.glob(table_file("*", "summary.json"))]
     if stamps:
         stamp = datetime.fromtimestamp(max(stamps), tz=UTC).strftime(" (tables of %Y-%m-%d)")
     present = datasets(results)
@@ -568,7 +572,7 @@ def _aubc_table(results: Path, dataset: str, summary: dict) -> list[str]:
     if not methods:
         return []
     scale = 100.0
-    budget = _rows(results / dataset / "tables" / "budget.csv")
+    budget = _rows(_table(results, dataset, "budget.csv"))
     if budget:
         scale = _num(budget[0].get("scale", 100))
     lines = [
@@ -606,7 +610,7 @@ def framework_view(results: Path, folder: Path, framework=EMBEDDING) -> Path:
     folder.mkdir(parents=True, exist_ok=True)
     for dataset_dir in sorted(p for p in Path(results).iterdir() if p.is_dir()):
         own = Path(kind.folder(results, dataset_dir.name))
-        if (own / "tables" / "budget.csv").is_file():
+        if Path(table_file(own, "budget.csv")).is_file():
             (folder / dataset_dir.name).symlink_to(own.resolve())
     return folder
 

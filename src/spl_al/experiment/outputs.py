@@ -11,6 +11,7 @@ from __future__ import annotations
 from spl_al.data.sources import has_levels
 from spl_al.experiment.plan import dataset_runs
 from spl_al.frameworks import get_framework
+from spl_al.layout import figure_file, table_file
 from spl_al.report.table_kinds import table_names
 
 TABLE_FORMATS = ("csv", "md", "tex")
@@ -29,12 +30,12 @@ def framework_outputs(config: dict, dataset: str, framework, *, results) -> list
     levels = has_levels(entry)
     base = kind.folder(results, dataset)
     tables = table_names(experiments, has_levels=levels)
-    out = [f"{base}/tables/{t}.{ext}" for t in tables for ext in TABLE_FORMATS]
+    out = [table_file(base, f"{t}.{ext}") for t in tables for ext in TABLE_FORMATS]
     if dataset_runs(config, dataset, kind):
-        out.append(f"{base}/tables/summary.json")
+        out.append(table_file(base, "summary.json"))
     if tables:
-        out += [f"{base}/tables/{name}.{ext}" for name in STATISTICS for ext in ("csv", "md")]
+        out += [table_file(base, f"{name}.{ext}") for name in STATISTICS for ext in ("csv", "md")]
     if "budget" in experiments:
         figures = ["curves", "aubc", *(["level_curves"] if levels else [])]
-        out += [f"{base}/figures/{f}.{ext}" for f in figures for ext in FIGURE_FORMATS]
+        out += [figure_file(base, f"{f}.{ext}") for f in figures for ext in FIGURE_FORMATS]
     return out

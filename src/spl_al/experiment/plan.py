@@ -32,6 +32,7 @@ from spl_al.frameworks import (
     get_feature_space,
     get_framework,
 )
+from spl_al.report.display import FULL_METHOD
 from spl_al.report.table_kinds import TABLE_KINDS, TableContext
 from spl_al.scenes.objects import CATEGORIES
 from spl_al.strategies import get as get_strategy
@@ -39,9 +40,6 @@ from spl_al.strategies import names as strategy_names
 from spl_al.strategies.duis import n_cand_error
 
 SWEEP_PARAMETERS = {"n_cand": "ncand", "alpha": "alpha", "n_variants": "m"}
-
-FULL_METHOD = "duis"
-"""The method the experiments are about: the one both families of a budget table hold."""
 
 MATCHED_PREFIX = "syn_"
 
@@ -470,6 +468,16 @@ def start_of(config: dict, dataset: str, method: str, specs=None) -> str:
     specs = specs if specs is not None else method_specs(config)
     al = config["datasets"][dataset]["al"]
     return specs[method].initial or initial_strategy(al, f"datasets.{dataset}.al")
+
+
+def round0_start(config: dict, dataset: str, method: str, specs=None) -> str | None:
+    """The start whose own round-0 sets ``method``'s round 0 reads
+    (``layout.initial_folder``): None for the dataset's ``al.initial_strategy``, shared
+    by every method at a seed; a cold start S for a cold-start arm ``X_from_S``."""
+    specs = specs if specs is not None else method_specs(config)
+    start = specs[method].initial
+    al = config["datasets"][dataset]["al"]
+    return None if start is None or start == initial_strategy(al) else start
 
 
 def _check_initial(config: dict, dataset: str, specs: dict) -> None:

@@ -10,7 +10,7 @@ from __future__ import annotations
 
 from collections.abc import Callable
 
-TASKS = ("classification", "segmentation")
+from spl_al.data.dataset import TASKS
 
 ARCHS: dict[str, dict[str, type]] = {task: {} for task in TASKS}
 """task -> {architecture name: model class}, the task's default first."""

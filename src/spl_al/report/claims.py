@@ -70,7 +70,7 @@ from spl_al.frameworks import (
 )
 from spl_al.report.comparisons import comparison_text
 from spl_al.report.decomposition import PARTS
-from spl_al.report.display import ABLATION_LABELS, FULL_METHOD, METRIC_LABELS, method_label
+from spl_al.report.display import ABLATION_LABELS, FULL_METHOD, METRIC_WORDS, method_label
 from spl_al.report.stats import (
     LEVEL,
     MIN_SEEDS,
@@ -579,8 +579,7 @@ def claims(
     if cmp.empty:
         return pd.DataFrame(columns=list(COLUMNS))
     first = cmp.iloc[0]
-    metric = METRIC_LABELS.get(first["metric"], first["metric"])
-    metric = "mIoU" if first["metric"] == "miou" else metric.lower()
+    metric = METRIC_WORDS.get(first["metric"], first["metric"].lower())
     rows = [
         *_best_method_claims(cmp, metric, families or {}),
         _low_budget_claim(cmp, families, framework),

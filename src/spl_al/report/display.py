@@ -66,6 +66,10 @@ METRIC_LABELS = {"accuracy": "Accuracy", "miou": "mIoU"}
 PARAMETER_LABELS = {"n_cand": "N_cand", "alpha": "α", "m": "M"}
 
 FULL_METHOD = "duis"
+"""The method the experiments are about: the one both families of a budget table hold."""
+
+METRIC_WORDS = {"accuracy": "accuracy", "miou": "mIoU"}
+"""A metric's name inside a sentence (``METRIC_LABELS`` heads a column)."""
 
 _STRATEGY_COLORS = {
     "random": "#7f7f7f",

@@ -31,9 +31,9 @@ from pathlib import Path
 
 import pandas as pd
 
+from spl_al.data.dataset import LEVELS
 from spl_al.frameworks import DEFAULT, framework_names
 
-LEVELS = ("high", "medium", "low")
 """MSPPP levels of the test split, in display order."""
 
 LEVEL_COLUMNS = tuple(f"level_{level}" for level in LEVELS)

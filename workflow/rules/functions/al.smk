@@ -1,28 +1,29 @@
 # Input functions of workflow/rules/al.smk: a round's files and settings.
 from spl_al.cold_start import COLD_START, initial_strategy, is_cold_start
+from spl_al.experiment.plan import round0_start
 
 # Folders of round-0 sets: initial/ (the dataset's al.initial_strategy) and initial_{S}/
 # (the round 0 that cold-start strategy S chooses for the cold-start experiment's arms).
-INITIAL_DIRS = r"initial(_(" + "|".join(COLD_START) + "))?"
+INITIAL_DIRS = layout.INITIAL + r"(_(" + "|".join(COLD_START) + "))?"
 
 
-def initial_set_params(dataset, folder="initial"):
+def initial_set_params(dataset, folder=layout.INITIAL):
     """What a seed's round-0 draw reads of the dataset's `al`: its size and how it is
     chosen (not the batches or the ratio's denominator). `folder`: initial_{S} holds
     the round 0 that S chooses for a cold-start arm."""
     al = config["datasets"][dataset]["al"]
     keys = ("initial", "stratified_initial", "initial_strategy")
-    if folder != "initial":
+    if folder != layout.INITIAL:
         return {
             "initial": al["initial"],
-            "initial_strategy": folder.removeprefix("initial_"),
+            "initial_strategy": folder.removeprefix(f"{layout.INITIAL}_"),
         }
     return {k: v for k, v in al.items() if k in keys}
 
 
 def initial_embeddings(wildcards):
     """A cold start's input: the embeddings of the run seed's encoder."""
-    folder = getattr(wildcards, "initial_dir", "initial")
+    folder = getattr(wildcards, "initial_dir", layout.INITIAL)
     al = initial_set_params(wildcards.dataset, folder)
     if not is_cold_start(initial_strategy(al)):
         return {}
@@ -147,12 +148,8 @@ def selection_embeddings(wildcards):
 
 
 def initial_folder(wildcards):
-    """Where the method's round-0 set lies: results/{dataset}/initial/ for the
-    dataset's own `al.initial_strategy`, initial_{S}/ for a method whose round 0 S
+    """Where the method's round-0 set lies (spl_al.layout.initial_folder): initial/ for
+    the dataset's own `al.initial_strategy`, initial_{S}/ for a method whose round 0 S
     chooses (a cold-start arm)."""
-    start = METHODS[wildcards.method].initial
-    if start is None or start == initial_strategy(
-        config["datasets"][wildcards.dataset]["al"]
-    ):
-        return f"{RESULTS}/{wildcards.dataset}/initial"
-    return f"{RESULTS}/{wildcards.dataset}/initial_{start}"
+    start = round0_start(config, wildcards.dataset, wildcards.method, METHODS)
+    return f"{RESULTS}/{wildcards.dataset}/{layout.initial_folder(start)}"
