@@ -202,7 +202,7 @@ def classification_rounds(ls: LabelStudio, workdir: Path, record: Path | None) -
 def segmentation_batch(ls: LabelStudio, workdir: Path, record: Path | None) -> dict:
     """A segmentation batch through the library: brush masks both ways."""
     sys.path.insert(0, str(ROOT / "tests"))
-    from label_studio_data import probabilities, segmentation_dataset
+    from helpers.label_studio_data import probabilities, segmentation_dataset
 
     from spl_al.labeling import read_label_file, write_batch
     from spl_al.labeling.label_studio import mask_to_rle

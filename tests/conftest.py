@@ -6,7 +6,7 @@ import os
 from pathlib import Path
 
 import pytest
-from photon_scenes import disc_scene
+from helpers.photon_scenes import disc_scene
 
 from spl_al.bench.estimate import ESTIMATE_ENV
 from spl_al.config import REAL_CAPTURES_ENV

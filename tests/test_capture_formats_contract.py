@@ -14,7 +14,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 import yaml
-from photon_captures import (
+from helpers.photon_captures import (
     pixel_bin_counts,
     simulate_capture,
     write_cube_h5,
@@ -23,7 +23,7 @@ from photon_captures import (
     write_sparse_mat,
     write_timestamps_mat,
 )
-from photon_scenes import disc_scene
+from helpers.photon_scenes import disc_scene
 
 from spl_al.photon import SensorParams, formats
 from spl_al.photon.io import CAPTURE_SUFFIXES, FORMATS, SUPPORTED_FORMATS, is_capture, load_capture

@@ -4,8 +4,8 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from photon_captures import simulate_capture, write_cube_npz, write_timestamps_mat
-from photon_scenes import disc_scene
+from helpers.photon_captures import simulate_capture, write_cube_npz, write_timestamps_mat
+from helpers.photon_scenes import disc_scene
 
 from spl_al.data import load_folder
 from spl_al.data.raw_captures import (

@@ -8,8 +8,13 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from photon_captures import simulate_capture, write_cube_h5, write_cube_npz, write_timestamps_mat
-from photon_scenes import disc_scene
+from helpers.photon_captures import (
+    simulate_capture,
+    write_cube_h5,
+    write_cube_npz,
+    write_timestamps_mat,
+)
+from helpers.photon_scenes import disc_scene
 
 from spl_al.data.raw_captures import (
     CaptureOptions,

@@ -15,8 +15,8 @@ import numpy as np
 import pandas as pd
 import pytest
 import yaml
-from photon_captures import simulate_capture, write_ptu, write_timestamps_mat
-from snakemake_cli import CI_CONFIG, SNAKEMAKE
+from helpers.photon_captures import simulate_capture, write_ptu, write_timestamps_mat
+from helpers.snakemake_cli import CI_CONFIG, SNAKEMAKE
 
 from spl_al.data.digits import digit_scene
 from spl_al.data.seeds import STREAM_SCENE, sample_rng

@@ -9,9 +9,9 @@ import shutil
 import numpy as np
 import pytest
 import torch
-from deploy_models import make_round
-from photon_captures import simulate_capture, write_ptu, write_sparse_mat
-from photon_scenes import disc_scene
+from helpers.deploy_models import make_round
+from helpers.photon_captures import simulate_capture, write_ptu, write_sparse_mat
+from helpers.photon_scenes import disc_scene
 
 from spl_al.__main__ import main as cli
 from spl_al.deploy.bundle import open_model

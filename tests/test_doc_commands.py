@@ -19,7 +19,7 @@ import subprocess
 from pathlib import Path
 
 import pytest
-from snakemake_cli import SNAKEMAKE, from_checkout
+from helpers.snakemake_cli import SNAKEMAKE, from_checkout
 from test_doc_examples import shell_commands
 
 ROOT = Path(__file__).resolve().parents[1]

@@ -18,8 +18,8 @@ from pathlib import Path
 
 import pytest
 import yaml
+from helpers.snakemake_cli import snakemake_on
 from snakemake.utils import update_config
-from snakemake_cli import snakemake_on
 
 from spl_al.config import check_config, drop_removed, select_datasets
 from spl_al.experiment.plan import check_plan

@@ -10,7 +10,7 @@ from dataclasses import replace
 
 import numpy as np
 import pytest
-from al_synthetic import shapes_groups
+from helpers.al_synthetic import shapes_groups
 
 from spl_al.data import Dataset
 from spl_al.experiment.embedding_steps import check_card, probe_runs, train_encoder

@@ -15,7 +15,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from snakemake_cli import SNAKEMAKE
+from helpers.snakemake_cli import SNAKEMAKE
 
 from spl_al.data import Dataset
 

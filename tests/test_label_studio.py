@@ -21,8 +21,8 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from label_studio_data import CLASSES as SEG_CLASSES
-from label_studio_data import probabilities, segmentation_dataset
+from helpers.label_studio_data import CLASSES as SEG_CLASSES
+from helpers.label_studio_data import probabilities, segmentation_dataset
 from PIL import Image
 
 from spl_al.data import Dataset

@@ -7,7 +7,7 @@ import struct
 
 import numpy as np
 import pytest
-from photon_captures import (
+from helpers.photon_captures import (
     pixel_bin_counts,
     simulate_capture,
     timestamp_cells,
@@ -17,7 +17,7 @@ from photon_captures import (
     write_timestamps_mat,
     write_v73_cells,
 )
-from photon_scenes import disc_scene
+from helpers.photon_scenes import disc_scene
 
 from spl_al.photon import SensorParams
 from spl_al.photon.io import load_capture, load_mat

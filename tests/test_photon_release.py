@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from photon_captures import simulate_capture, write_cube_npz, write_timestamps_mat
+from helpers.photon_captures import simulate_capture, write_cube_npz, write_timestamps_mat
 
 from spl_al.photon import SensorParams
 from spl_al.photon.__main__ import main

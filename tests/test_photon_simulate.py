@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from photon_scenes import disc_scene
+from helpers.photon_scenes import disc_scene
 from scipy import stats
 
 from spl_al.photon import Condition, PhotonScene, SensorParams, histogram, simulate_photons

@@ -21,7 +21,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 import pytest
-from snakemake_cli import CI_CONFIG, SNAKEMAKE
+from helpers.snakemake_cli import CI_CONFIG, SNAKEMAKE
 
 from spl_al.warm.client import SOCKET_ENV
 

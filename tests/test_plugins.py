@@ -15,7 +15,7 @@ import numpy as np
 import pandas as pd
 import pytest
 import yaml
-from snakemake_cli import CI_CONFIG, SNAKEMAKE
+from helpers.snakemake_cli import CI_CONFIG, SNAKEMAKE
 from test_strategies import check_contract, make_inputs
 
 from spl_al import strategies

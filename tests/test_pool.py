@@ -4,7 +4,7 @@ import io
 
 import numpy as np
 import pytest
-from al_synthetic import shapes_groups
+from helpers.al_synthetic import shapes_groups
 
 from spl_al import strategies
 from spl_al.models import build_model

@@ -6,7 +6,7 @@ import io
 import numpy as np
 import pytest
 import torch
-from al_synthetic import shapes_groups
+from helpers.al_synthetic import shapes_groups
 
 from spl_al.models import build_model
 from spl_al.training import TrainConfig, evaluate, predict, train

@@ -13,7 +13,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 import pytest
-from snakemake_cli import CI_CONFIG, SNAKEMAKE
+from helpers.snakemake_cli import CI_CONFIG, SNAKEMAKE
 
 from spl_al.data import load_folder
 from spl_al.data.digits import write_digits_folder

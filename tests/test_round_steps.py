@@ -6,7 +6,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 import torch
-from al_synthetic import shapes_groups
+from helpers.al_synthetic import shapes_groups
 
 from spl_al.data import Dataset
 from spl_al.experiment.round_steps import (

@@ -2,7 +2,7 @@
 
 import numpy as np
 import pytest
-from al_synthetic import shapes_groups, street_groups
+from helpers.al_synthetic import shapes_groups, street_groups
 
 from spl_al import strategies
 from spl_al.models import build_model

@@ -41,8 +41,8 @@ def release_folder(root: Path) -> Path:
 def reconstructed_captures(root: Path, labeled: bool) -> tuple[Path, Path]:
     """Six simulated captures (MSPPP 2, 5, 10; in class folders when ``labeled``) and the
     release-layout folder of their reconstructions (what rule captures_release makes)."""
-    from photon_captures import simulate_capture, write_cube_npz
-    from photon_scenes import disc_scene
+    from helpers.photon_captures import simulate_capture, write_cube_npz
+    from helpers.photon_scenes import disc_scene
 
     from spl_al.data.raw_captures import (
         CaptureOptions,

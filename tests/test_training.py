@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 import torch
 import torch.nn.functional as F
-from al_synthetic import shapes_groups, street_groups
+from helpers.al_synthetic import shapes_groups, street_groups
 from torch import nn
 
 from spl_al.label_codes import IGNORE_INDEX

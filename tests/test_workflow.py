@@ -11,7 +11,7 @@ from pathlib import Path
 
 import pytest
 import yaml
-from snakemake_cli import SNAKEMAKE
+from helpers.snakemake_cli import SNAKEMAKE
 
 from spl_al.config import drop_removed
 

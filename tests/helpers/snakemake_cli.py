@@ -5,7 +5,7 @@ logs (a user's run there, finished or not, changes nothing here)."""
 import sys
 from pathlib import Path
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 
 
 def snakemake_on(snakefile) -> list[str]:
