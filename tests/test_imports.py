@@ -33,7 +33,10 @@ LAYERS: list[tuple[str, list[str]]] = [
     ("data", ["spl_al.data"]),
     ("physics and geometry", ["spl_al.photon", "spl_al.scenes"]),
     ("kit", ["spl_al.config", "spl_al.frameworks", "spl_al.plotting"]),
-    ("ground", ["spl_al", "spl_al.atomic", "spl_al.label_codes", "spl_al.layout"]),
+    (
+        "ground",
+        ["spl_al", "spl_al.atomic", "spl_al.label_codes", "spl_al.layout", "spl_al.seeding"],
+    ),
 ]
 
 # (importer, imported): why the arrow still points up. Remove an entry with its arrow.

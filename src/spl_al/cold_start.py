@@ -26,7 +26,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from spl_al.pool import INITIAL_SET_STREAM, initial_labeled_set
+from spl_al.pool import initial_labeled_set
+from spl_al.seeding import round0_rng
 
 RANDOM, STRATIFIED = "random", "stratified"
 COLD_START = ("typiclust", "probcover", "maxherding")
@@ -116,7 +117,7 @@ def first_batch(
         features=x,
         labeled_features=np.zeros((0, x.shape[1]), dtype=np.float32),
     )
-    rng = np.random.default_rng([INITIAL_SET_STREAM, int(seed)])
+    rng = round0_rng(seed)
     picks = check_picks(strategy, chooser.select(inputs, int(size), rng), inputs, int(size))
     return np.sort(np.asarray(picks, dtype=np.int64)), dict(chooser.decision)
 

@@ -11,9 +11,7 @@ from __future__ import annotations
 import numpy as np
 
 from spl_al.atomic import read_json
-
-# a fixed stream id, so the round-0 set is independent of any other use of the seed
-INITIAL_SET_STREAM = 0x5EED_0001
+from spl_al.seeding import round0_rng
 
 
 def _as_indices(name: str, indices, n: int) -> np.ndarray:
@@ -50,7 +48,7 @@ def initial_labeled_set(
         raise ValueError(f"n_train must be an integer >= 0, got {n_train!r}.")
     if int(size) != size or not 0 <= size <= n_train:
         raise ValueError(f"size must be an integer in [0, {n_train}], got {size!r}.")
-    rng = np.random.default_rng([INITIAL_SET_STREAM, int(seed)])
+    rng = round0_rng(seed)
     if not stratified:
         return np.sort(rng.choice(int(n_train), size=int(size), replace=False)).astype(np.int64)
     if labels is None:

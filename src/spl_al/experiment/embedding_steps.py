@@ -13,7 +13,7 @@ one job.
 The round-0 sets are the seeds' own (``spl_al.cold_start.round0_set``, as the
 supervised framework's ``initial_set`` chooses them; a cold start reads the run seed's
 encoder), and a query's random stream is
-the supervised query's (``step_seed(seed, round, QUERY_STREAM)``): the two
+the supervised query's (``seeding.round_rng(QUERY, seed, round)``): the two
 frameworks differ in the model alone.
 """
 
@@ -32,12 +32,12 @@ from spl_al.data.dataset import LEVELS
 from spl_al.deploy.card import file_sha256
 from spl_al.experiment.encoders import load_embeddings
 from spl_al.experiment.plan import MethodSpec, batch_of
-from spl_al.experiment.round_steps import QUERY_STREAM, step_seed
 from spl_al.experiment.step_args import ProbeRuns
 from spl_al.frameworks import EMBEDDING
 from spl_al.linear_probe import DEFAULT_C, LinearProbe, probe_inputs
 from spl_al.models.configured import save_model
 from spl_al.pool import Pool
+from spl_al.seeding import QUERY, round_rng
 from spl_al.strategies import check_picks, get
 from spl_al.strategies.duis import check_candidate_pool
 from spl_al.training.compute import LOCAL, Compute
@@ -314,7 +314,7 @@ def _run(facts: ProbeData, spec: MethodSpec, *, which, al, rounds, c, n_variants
         check_candidate_pool(
             strategy, inputs.n_unlabeled, dataset=dataset, method=spec.name, seed=seed, round_=r + 1
         )
-        rng = np.random.default_rng(step_seed(seed, r, QUERY_STREAM))
+        rng = round_rng(QUERY, seed, r)
         pool.add(check_picks(spec.strategy, strategy.select(inputs, batch, rng), inputs, batch))
         records[-1]["seconds"] = round(time.perf_counter() - started, 4)
         if strategy.decision:  # what the query after this round decided (ProbCover's radius, ...)

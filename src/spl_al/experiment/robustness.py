@@ -40,10 +40,10 @@ from spl_al.plotting import fit_texts, new_figure
 from spl_al.report.stat_figures import difference_figure, heatmap_figure
 from spl_al.report.stats import paired_test
 from spl_al.report.writers import atomic_write
+from spl_al.seeding import grid_seed
 from spl_al.training.compute import LOCAL, Compute
 
 GRID_FORMAT = "spl-al-robustness-grid"
-_STREAM_GRID = 11
 
 
 def grid_conditions(msppp, sbr) -> list[tuple[float, float]]:
@@ -57,12 +57,6 @@ def grid_conditions(msppp, sbr) -> list[tuple[float, float]]:
         if np.unique(v).size != v.size:
             raise ValueError(f"robustness.{name} lists a value twice: {values!r}.")
     return [(float(m), float(s)) for m in msppp for s in sbr]
-
-
-def condition_seed(seed: int, msppp: float, sbr: float) -> int:
-    """Seed of one grid cell: depends on the grid seed and the cell's values only."""
-    key = [int(seed), _STREAM_GRID, round(msppp * 1000), round(sbr * 1000)]
-    return int(np.random.SeedSequence(key).generate_state(1)[0] >> 1)
 
 
 def shard_conditions(conditions, shard: int, shards: int) -> list[int]:
@@ -140,9 +134,7 @@ def make_grid_shard(observed_path, grid: dict, shard: int, out_path) -> dict:
     source = "clean"
     for k, c in enumerate(mine):
         m, s = conditions[c]
-        depth[k], source = reimage(
-            dataset, idx, msppp=m, sbr=s, seed=condition_seed(grid["seed"], m, s)
-        )
+        depth[k], source = reimage(dataset, idx, msppp=m, sbr=s, seed=grid_seed(grid["seed"], m, s))
     finite = depth[np.isfinite(depth)]
     step = storage.choose_depth_step(float(finite.max()) if finite.size else 0.0)
     arrays = {

@@ -24,20 +24,11 @@ from spl_al.experiment.step_args import FRESH, ModelFiles, RoundId, RoundStart
 from spl_al.frameworks import get_feature_space
 from spl_al.linear_probe import embedding_features
 from spl_al.pool import Pool, read_labeled
+from spl_al.seeding import QUERY, TRAIN, round_rng, round_seed
 from spl_al.strategies import StrategyContractError, StrategyInputs, check_picks, get
 from spl_al.strategies.duis import check_candidate_pool
 from spl_al.strategies.inputs import ARRAY_FIELDS, GROUP_NEEDS, NEEDS
 from spl_al.training.compute import LOCAL, Compute
-
-# Streams of np.random.SeedSequence([seed, round, stream]): one per kind of draw.
-TRAIN_STREAM = 1
-QUERY_STREAM = 2
-
-
-def step_seed(seed: int, round_: int, stream: int) -> int:
-    """A 31-bit seed for one (run seed, round, kind of draw): independent streams."""
-    return int(np.random.SeedSequence([int(seed), int(round_), stream]).generate_state(1)[0] >> 1)
-
 
 # ---------------------------------------------------------------- labeled sets
 
@@ -167,7 +158,7 @@ def fit_and_evaluate(
         model=model,
         fit=fit,
         n_variants=n_variants,
-        seed=step_seed(seed, round_, TRAIN_STREAM),
+        seed=round_seed(TRAIN, seed, round_),
         compute=compute,
         log=log,
     )
@@ -607,7 +598,7 @@ def query_round(
     n_cand = getattr(strategy, "n_cand", None)
     where = {"round_": round_, "dataset": dataset, "method": method_name, "seed": seed}
     check_candidate_pool(strategy, n_unlabeled, **where)
-    rng = np.random.default_rng(step_seed(seed, round_ - 1, QUERY_STREAM))
+    rng = round_rng(QUERY, seed, round_ - 1)
     try:
         picked = check_picks(spec.strategy, strategy.select(inputs, int(batch), rng), inputs, batch)
     except StrategyContractError as err:
