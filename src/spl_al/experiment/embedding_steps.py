@@ -37,9 +37,9 @@ from spl_al.frameworks import EMBEDDING
 from spl_al.linear_probe import DEFAULT_C, LinearProbe, probe_inputs
 from spl_al.models.configured import save_model
 from spl_al.pool import Pool
-from spl_al.seeding import QUERY, round_rng
-from spl_al.strategies import check_picks, get
-from spl_al.strategies.duis import check_candidate_pool
+from spl_al.query import query_batch
+from spl_al.report.records import round_record
+from spl_al.strategies import get
 from spl_al.training.compute import LOCAL, Compute
 from spl_al.training.contrastive import EncoderConfig, embed, encoder_health
 from spl_al.training.contrastive import train_encoder as fit_encoder
@@ -232,32 +232,30 @@ def probe_runs(dataset_path, encoders: dict, *, runs: ProbeRuns, out_path, log=N
 
 
 def _record(facts: ProbeData, model, method: str, *, which, n_labeled, n_images) -> dict:
-    """The metrics record of one round: ``model`` measured on the test split.
-    ``which``: (dataset, seed, round); ``n_images``: the images it was fitted on."""
+    """The metrics record of one round (``report.round_record``): ``model`` measured on
+    the test split. ``which``: (dataset, seed, round); ``n_images``: the images it was
+    fitted on."""
     dataset, seed, round_ = which
     correct = model.predict_proba(facts.test).argmax(axis=1) == facts.test_labels
     levels = facts.test_levels
-    return {
-        "dataset": dataset,
-        "method": method,
-        "seed": seed,
-        "round": round_,
-        "n_labeled": int(n_labeled),
-        "n_pool": len(facts.train),
-        "n_total": facts.n_total,
-        "ratio": n_labeled / facts.n_total,
-        "metric": "accuracy",
-        "value": float(correct.mean()),
-        "per_level": {
-            lv: float(correct[levels == lv].mean()) for lv in LEVELS if (levels == lv).any()
-        },
-        "synthetic_standin": facts.standin,
-        "framework": FRAMEWORK,
-        "train_images": int(n_images),
-        "precision": "fp32",
-        "encoder": int(facts.encoder[0]),
-        "encoder_health": facts.encoder[1],
-    }
+    return round_record(
+        dataset,
+        method,
+        seed,
+        round_,
+        n_labeled=n_labeled,
+        n_pool=len(facts.train),
+        n_total=facts.n_total,
+        metric="accuracy",
+        value=correct.mean(),
+        per_level={lv: correct[levels == lv].mean() for lv in LEVELS if (levels == lv).any()},
+        synthetic_standin=facts.standin,
+        framework=FRAMEWORK,
+        train_images=int(n_images),
+        precision="fp32",
+        encoder=int(facts.encoder[0]),
+        encoder_health=facts.encoder[1],
+    )
 
 
 def _run(facts: ProbeData, spec: MethodSpec, *, which, al, rounds, c, n_variants) -> list[dict]:
@@ -310,12 +308,8 @@ def _run(facts: ProbeData, spec: MethodSpec, *, which, al, rounds, c, n_variants
             labeled_idx=lab,
             n_images=1 + spec.variants_seen(n_variants),
         )
-        batch = batch_of(al, r + 1)
-        check_candidate_pool(
-            strategy, inputs.n_unlabeled, dataset=dataset, method=spec.name, seed=seed, round_=r + 1
-        )
-        rng = round_rng(QUERY, seed, r)
-        pool.add(check_picks(spec.strategy, strategy.select(inputs, batch, rng), inputs, batch))
+        where = {"seed": seed, "round_": r + 1, "dataset": dataset, "method": spec.name}
+        pool.add(query_batch(strategy, spec.strategy, inputs, batch_of(al, r + 1), **where))
         records[-1]["seconds"] = round(time.perf_counter() - started, 4)
         if strategy.decision:  # what the query after this round decided (ProbCover's radius, ...)
             records[-1]["query_decision"] = dict(strategy.decision)

@@ -16,7 +16,6 @@ import numpy as np
 from spl_al.atomic import atomic_write, read_json, write_json
 from spl_al.cold_start import RANDOM, STRATIFIED, initial_strategy, is_cold_start, round0_set
 from spl_al.data import SCENE_FIELDS, Dataset
-from spl_al.data.dataset import LEVELS
 from spl_al.data.label_files import labels_for
 from spl_al.experiment.encoders import embeddings_source, load_embeddings
 from spl_al.experiment.plan import MethodSpec
@@ -24,9 +23,10 @@ from spl_al.experiment.step_args import FRESH, ModelFiles, RoundId, RoundStart
 from spl_al.frameworks import get_feature_space
 from spl_al.linear_probe import embedding_features
 from spl_al.pool import Pool, read_labeled
-from spl_al.seeding import QUERY, TRAIN, round_rng, round_seed
-from spl_al.strategies import StrategyContractError, StrategyInputs, check_picks, get
-from spl_al.strategies.duis import check_candidate_pool
+from spl_al.query import query_batch
+from spl_al.report.records import round_record
+from spl_al.seeding import TRAIN, round_seed
+from spl_al.strategies import StrategyInputs, get
 from spl_al.strategies.inputs import ARRAY_FIELDS, GROUP_NEEDS, NEEDS
 from spl_al.training.compute import LOCAL, Compute
 
@@ -356,33 +356,27 @@ def _shared_round0(initial: ModelFiles, method: MethodSpec, pool_idx, out: Model
 
 
 def _metrics_record(facts, setup, which: RoundId, n_labeled, metrics, extra) -> dict:
-    """The per-round record ``spl_al.report`` aggregates (``facts``: ``dataset_facts``;
-    ``extra``: training images, steps and images seen, timing and precision)."""
+    """The per-round record ``spl_al.report`` aggregates (``report.round_record``;
+    ``facts``: ``dataset_facts``; ``extra``: training images, steps and images seen,
+    timing and precision; the test metrics in full go last, as ``details``)."""
     key = "accuracy" if facts["task"] == "classification" else "miou"
     ratio_of = setup.get("ratio_of", "train")
-    n_total = facts["n_samples"] if ratio_of == "all" else facts["n_train"]
-    return {
-        "dataset": which.dataset,
-        "method": which.method,
-        "seed": int(which.seed),
-        "round": int(which.round),
-        "n_labeled": int(n_labeled),
-        "n_pool": facts["n_train"],
-        "n_total": int(n_total),
-        "ratio": n_labeled / n_total,
-        "metric": key,
-        "value": float(metrics[key]),
-        # Images without a known MSPPP level ("unknown": folder data without
-        # conditions) count in "value" but belong to no level.
-        "per_level": {
-            level: float(v[key])
-            for level, v in metrics.get("per_level", {}).items()
-            if v[key] is not None and level in LEVELS  # not "unknown" (external files)
-        },
-        "synthetic_standin": facts["synthetic_standin"],
+    levels = metrics.get("per_level", {})
+    return round_record(
+        which.dataset,
+        which.method,
+        which.seed,
+        which.round,
+        n_labeled=n_labeled,
+        n_pool=facts["n_train"],
+        n_total=facts["n_samples"] if ratio_of == "all" else facts["n_train"],
+        metric=key,
+        value=metrics[key],
+        per_level={level: v[key] for level, v in levels.items()},
+        synthetic_standin=facts["synthetic_standin"],
         **extra,
-        "details": metrics,
-    }
+        details=metrics,
+    )
 
 
 def train_round(
@@ -596,16 +590,8 @@ def query_round(
     strategy = get(spec.strategy, **spec.params)
     n_unlabeled = int(inputs.n_unlabeled)
     n_cand = getattr(strategy, "n_cand", None)
-    where = {"round_": round_, "dataset": dataset, "method": method_name, "seed": seed}
-    check_candidate_pool(strategy, n_unlabeled, **where)
-    rng = round_rng(QUERY, seed, round_ - 1)
-    try:
-        picked = check_picks(spec.strategy, strategy.select(inputs, int(batch), rng), inputs, batch)
-    except StrategyContractError as err:
-        where = f"{dataset}/{method_name}" if dataset and method_name else method_name or "run"
-        raise StrategyContractError(
-            f"{where} seed {seed}: the query that makes round {round_} stopped, as {err}"
-        ) from None
+    where = {"seed": seed, "round_": round_, "dataset": dataset, "method": method_name}
+    picked = query_batch(strategy, spec.strategy, inputs, batch, **where)
     n_train = int(labeled.size + n_unlabeled)
     pool = Pool(n_train, labeled)
     pool.add(picked)

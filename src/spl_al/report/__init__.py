@@ -30,6 +30,7 @@ from spl_al.report.records import (
     one_dataset,
     records_frame,
     round_for_budget,
+    round_record,
     trained_at,
     validate_record,
 )
@@ -65,6 +66,7 @@ __all__ = [
     "render_latex",
     "render_markdown",
     "round_for_budget",
+    "round_record",
     "save_figure",
     "sensitivity_table",
     "summary",

@@ -110,6 +110,48 @@ def _check_optional(record: Mapping, bad) -> None:
         raise bad("encoder_health", f"one of {list(ENCODER_HEALTH)}")
 
 
+def round_record(
+    dataset: str,
+    method: str,
+    seed: int,
+    round_: int,
+    *,
+    n_labeled: int,
+    n_pool: int,
+    n_total: int,
+    metric: str,
+    value: float,
+    per_level,
+    synthetic_standin: bool,
+    **extra,
+) -> dict:
+    """The metrics record of one round, the one both frameworks write and
+    ``load_records`` reads (``validate_record``).
+
+    ``n_total``: the ratio's denominator; ``per_level``: level -> the metric on that
+    MSPPP level's test images, those without a known level ("unknown": folder data
+    without conditions, counted in ``value``) or without a value left out; ``extra``:
+    what the framework adds after the shared keys (training images and steps, timing,
+    precision, encoder, details)."""
+    return {
+        "dataset": dataset,
+        "method": method,
+        "seed": int(seed),
+        "round": int(round_),
+        "n_labeled": int(n_labeled),
+        "n_pool": int(n_pool),
+        "n_total": int(n_total),
+        "ratio": n_labeled / n_total,
+        "metric": metric,
+        "value": float(value),
+        "per_level": {
+            level: float(v) for level, v in per_level.items() if v is not None and level in LEVELS
+        },
+        "synthetic_standin": synthetic_standin,
+        **extra,
+    }
+
+
 def validate_record(record, where: str = "record") -> dict:
     """Check one metrics record against the contract and return its frame row.
 
