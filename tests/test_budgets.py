@@ -21,7 +21,8 @@ from spl_al.experiment.plan import (
     labeled_at,
     train_pool_size,
 )
-from spl_al.experiment.round_steps import query_round, write_initial_set
+from spl_al.experiment.round0 import write_initial_set
+from spl_al.experiment.round_steps import query_round
 from spl_al.strategies import StrategyInputs
 from spl_al.strategies.duis import CandidatePoolTooLarge
 

@@ -22,7 +22,7 @@ from spl_al.cold_start import (
     start_name,
 )
 from spl_al.data.unlabeled_folder import load_unlabeled_folder
-from spl_al.experiment import human, round_steps
+from spl_al.experiment import human, round0
 from spl_al.experiment.plan import check_plan, dataset_runs, method_specs
 from spl_al.pool import initial_labeled_set
 
@@ -161,7 +161,7 @@ def leaking_variant(path, emb, seed, out):
     data = Dataset.load(path)
     shift = int(data.labels[data.test_idx].sum())
     idx, _ = round0_set("random", len(data.train_idx), 4, 1 + shift)
-    round_steps.write_initial_set(idx, 1, out)
+    round0.write_initial_set(idx, 1, out)
 
 
 @pytest.mark.parametrize("choose", [cold_start_as_shipped, leaking_variant])
@@ -202,7 +202,7 @@ def test_a_lab_first_batch_is_typiclust_on_its_encoder_and_says_so(tmp_path):
 
 
 def test_a_simulated_oracle_cold_start_reads_no_training_label(tmp_path):
-    """round_steps.initial_set on a labeled dataset: permuting every label changes
+    """round0.initial_set on a labeled dataset: permuting every label changes
     nothing; stratified (which reads them) does change."""
     from spl_al.data import Dataset
 
@@ -216,7 +216,7 @@ def test_a_simulated_oracle_cold_start_reads_no_training_label(tmp_path):
         for start in ("typiclust", "stratified"):
             al = {"initial": 6, "initial_strategy": start}
             out = tmp_path / f"{name}_{start}.json"
-            round_steps.initial_set(p, al, 2, out, embeddings=emb)
+            round0.initial_set(p, al, 2, out, embeddings=emb)
             picks[name, start] = read_json(out)["pool_indices"]
     assert picks["a", "typiclust"] == picks["b", "typiclust"]
     assert picks["a", "stratified"] != picks["b", "stratified"]

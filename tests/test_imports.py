@@ -214,6 +214,33 @@ def test_no_module_imports_its_own_layer_or_above():
     assert not wrong, "imports against the layers (tests/test_imports.py):\n" + "\n".join(wrong)
 
 
+STEP_MODULES = frozenset(
+    f"spl_al.experiment.{name}"
+    for name in (
+        "data_steps",
+        "round_steps",
+        "embedding_steps",
+        "report_steps",
+        "deploy_steps",
+        "human",
+        "robustness",
+    )
+)
+"""The modules whose functions the workflow's scripts call: what two share lives in a
+module of its own (spl_al.experiment's docstring), so none imports another."""
+
+
+def test_no_step_module_imports_a_sibling_step_module():
+    assert set(MODULES) >= STEP_MODULES
+    found = [
+        f"{module}:{line} imports {target}"
+        for module in sorted(STEP_MODULES)
+        for line, target, _name in imports(module)
+        if owner(target) in STEP_MODULES - {module}
+    ]
+    assert not found, "\n".join(found)
+
+
 def test_every_listed_upward_arrow_still_exists():
     edges = graph()
     gone = [pair for pair in UPWARD if pair[1] not in edges.get(pair[0], set())]

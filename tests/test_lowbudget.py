@@ -236,7 +236,8 @@ def test_probcover_without_a_class_count_builds_but_never_selects():
 
 
 def test_a_supervised_query_records_what_the_strategy_decided(tmp_path):
-    from spl_al.experiment.round_steps import query_round, write_initial_set
+    from spl_al.experiment.round0 import write_initial_set
+    from spl_al.experiment.round_steps import query_round
 
     x, order = _blobs(n_unl=100, n_lab=10)
     inputs = _inputs(x, order, 10)
@@ -310,7 +311,8 @@ def test_the_default_run_compares_duis_with_dropquery_in_the_embedding_framework
 def test_a_supervised_dropquery_query_reads_the_saved_head(tmp_path):
     """The scores file a training step saves carries the classifier head; the query step
     reads it back and records the candidate count."""
-    from spl_al.experiment.round_steps import query_round, write_initial_set
+    from spl_al.experiment.round0 import write_initial_set
+    from spl_al.experiment.round_steps import query_round
 
     inputs = _head_inputs()
     inputs.save(tmp_path / "scores.npz")

@@ -9,13 +9,13 @@ import torch
 from helpers.al_synthetic import shapes_groups
 
 from spl_al.data import Dataset
+from spl_al.experiment.round0 import write_initial_set
 from spl_al.experiment.round_steps import (
     ModelFiles,
     RoundId,
     RoundStart,
     train_initial,
     train_round,
-    write_initial_set,
 )
 from spl_al.models.configured import save_model
 from spl_al.strategies import StrategyInputs
@@ -200,7 +200,7 @@ def test_the_same_weights_pick_the_same_groups_whatever_the_training_precision(t
     (MEASURE_PRECISION). Scored under bf16 autocast instead, the same weights give
     other numbers: the rounding that made verdicts flip between precisions."""
     from spl_al.experiment.plan import MethodSpec
-    from spl_al.experiment.round_steps import score_pool
+    from spl_al.experiment.pool_scores import score_pool
     from spl_al.models.configured import load_model
     from spl_al.scoring import compute_inputs
     from spl_al.strategies import get

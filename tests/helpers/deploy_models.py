@@ -14,7 +14,7 @@ from spl_al.atomic import write_json
 from spl_al.data import make_classification_dataset, make_segmentation_dataset
 from spl_al.data.variants import make_variants
 from spl_al.deploy.card import RunFacts, build_card, card_path, write_card
-from spl_al.experiment.round_steps import write_initial_set
+from spl_al.experiment.round0 import write_initial_set
 from spl_al.models.configured import model_for, save_model
 from spl_al.training import evaluate
 

@@ -2,7 +2,7 @@ from spl_al.warm.server import run_job
 
 run_job(
     snakemake.log[0],
-    "spl_al.experiment.round_steps:initial_set",
+    "spl_al.experiment.round0:initial_set",
     dict(
         dataset_path=snakemake.input.observed,
         al=snakemake.params.al,

@@ -30,6 +30,7 @@ from spl_al.atomic import read_json, write_json
 from spl_al.cold_start import STRATIFIED, initial_strategy
 from spl_al.data import SCENE_FIELDS, Dataset
 from spl_al.data.label_files import listed_samples, load_labels, save_labels
+from spl_al.experiment import round0
 from spl_al.labeling import read_label_file, write_batch
 from spl_al.training.compute import Compute
 
@@ -44,15 +45,12 @@ def initial_set(
     seed_labels=None,
     embeddings=None,
 ) -> dict:
-    """The round-0 labeled set: ``round_steps.initial_set`` for a simulated oracle; for a
+    """The round-0 labeled set: ``round0.initial_set`` for a simulated oracle; for a
     human one the training rows of ``seed_labels`` (when it has any), else ``al.initial``
     samples chosen by ``al.initial_strategy``: at random, or without a label on the
     encoder's ``embeddings`` (a cold start)."""
-    # pandas on demand (importing this module does not load it)
-    from spl_al.experiment import round_steps
-
     if oracle != "human":
-        return round_steps.initial_set(dataset_path, al, seed, out_path, embeddings=embeddings)
+        return round0.initial_set(dataset_path, al, seed, out_path, embeddings=embeddings)
 
     start = initial_strategy(al)
     if start == STRATIFIED:
@@ -63,9 +61,9 @@ def initial_set(
     dataset = Dataset.load(dataset_path)
     listed = listed_samples(seed_labels, dataset) if seed_labels else np.zeros(0, np.int64)
     if listed.size:
-        return round_steps.write_initial_set(listed, seed, out_path)
-    idx, chosen = round_steps.choose_initial(dataset, start, al, seed, embeddings=embeddings)
-    return round_steps.write_initial_set(idx, seed, out_path, chosen=chosen)
+        return round0.write_initial_set(listed, seed, out_path)
+    idx, chosen = round0.choose_initial(dataset, start, al, seed, embeddings=embeddings)
+    return round0.write_initial_set(idx, seed, out_path, chosen=chosen)
 
 
 def _asked(record: dict) -> list[int]:

@@ -78,6 +78,7 @@ PRELOAD = (
     "spl_al.scoring",
     "spl_al.strategies",
     "spl_al.experiment.data_steps",
+    "spl_al.experiment.round0",
     "spl_al.experiment.round_steps",
     "spl_al.experiment.report_steps",
     "spl_al.report",
