@@ -71,9 +71,9 @@ def test_duis_candidate_pool_ignores_a_common_offset():
 def test_badge_picks_ignore_a_common_offset_of_dense_embeddings():
     # "max_norm" starts at the largest norm, which an offset changes; "random" does not
     emb = _features(2000, 11 * 16, 4)  # a segmentation pool's (groups, C * d) embeddings
-    picks = kmeans_pp_seeding(100, np.random.default_rng(0), embedding=emb, first="random")
+    picks = kmeans_pp_seeding(100, np.random.default_rng(0), gradients=emb, first="random")
     shifted = kmeans_pp_seeding(
-        100, np.random.default_rng(0), embedding=emb + OFFSET, first="random"
+        100, np.random.default_rng(0), gradients=emb + OFFSET, first="random"
     )
     assert shifted.tolist() == picks.tolist()
 

@@ -8,7 +8,7 @@ from pathlib import Path
 import pytest
 import yaml
 
-from spl_al.docs import configuration, pages
+from spl_al.docs import configuration, results_blocks
 from spl_al.docs.markers import replace_block
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -170,7 +170,7 @@ def test_pages_generator_writes_every_dataset_and_keeps_the_readme_outside(tmp_p
     readme = tmp_path / "README.md"
     readme.write_text(f"{head}<!-- results:start -->\nold block\n<!-- results:end -->\n{tail}")
 
-    assert pages.main([str(results), "--docs", str(docs), "--readme", str(readme)]) == 0
+    assert results_blocks.main([str(results), "--docs", str(docs), "--readme", str(readme)]) == 0
 
     text = readme.read_text()
     assert text.startswith(head + "<!-- results:start -->\n")
@@ -194,7 +194,10 @@ def test_pages_generator_writes_every_dataset_and_keeps_the_readme_outside(tmp_p
 
 
 def test_pages_generator_refuses_a_folder_without_results(tmp_path, capsys):
-    assert pages.main([str(tmp_path), "--docs", str(tmp_path), "--readme", str(tmp_path)]) == 1
+    assert (
+        results_blocks.main([str(tmp_path), "--docs", str(tmp_path), "--readme", str(tmp_path)])
+        == 1
+    )
     assert "holds no dataset" in capsys.readouterr().err
 
 
@@ -212,7 +215,7 @@ def test_pages_generator_gives_a_second_run_its_own_page_and_figures(tmp_path):
     readme.write_text(f"{default_block}\n<!-- decisive:start -->\nold\n<!-- decisive:end -->\n")
 
     argv = [str(results), "--docs", str(docs), "--readme", str(readme), "--page", "decisive"]
-    assert pages.main(argv) == 0
+    assert results_blocks.main(argv) == 0
 
     text = readme.read_text()
     assert text.startswith(default_block)  # the default run's block is not touched
@@ -229,7 +232,7 @@ def test_pages_generator_gives_a_second_run_its_own_page_and_figures(tmp_path):
 
     # a README without the page's block is left as it was
     readme.write_text(default_block)
-    assert pages.main(argv) == 0
+    assert results_blocks.main(argv) == 0
     assert readme.read_text() == default_block
 
 
@@ -244,7 +247,7 @@ def test_pages_generator_reads_the_embedding_framework_of_a_run(tmp_path):
     readme = tmp_path / "README.md"
     readme.write_text("<!-- embedding:start -->\nold\n<!-- embedding:end -->\n")
     argv = [str(results), "--docs", str(docs), "--readme", str(readme), "--page", "embedding"]
-    assert pages.main([*argv, "--framework", "embedding"]) == 0
+    assert results_blocks.main([*argv, "--framework", "embedding"]) == 0
     text = readme.read_text()
     assert "**real_cls**" in text and "| DUIS | 40.0 [35.0, 45.0] |" in text
     page = (docs / "embedding.md").read_text()
@@ -261,7 +264,7 @@ def test_pages_generator_writes_nothing_when_the_readme_lacks_its_block(tmp_path
     readme = tmp_path / "README.md"
     readme.write_text("# no block\n")
 
-    assert pages.main([str(results), "--docs", str(docs), "--readme", str(readme)]) == 1
+    assert results_blocks.main([str(results), "--docs", str(docs), "--readme", str(readme)]) == 1
     assert "<!-- results:start -->" in capsys.readouterr().err
     assert (
         docs / "results.md"
@@ -293,7 +296,7 @@ def test_readme_table_shows_the_matched_family_first_and_the_aubc_range(tmp_path
                  source="extension"),
         ],
     )  # fmt: skip
-    lines = pages.compact_table(results, "real_cls")
+    lines = results_blocks.compact_table(results, "real_cls")
     assert "AUBC rounds 1-1 (4.0%) [95% CI]" in lines[0]
     rows = [line.split(" | ")[0].lstrip("| ") for line in lines[2:]]
     assert rows == [
@@ -303,7 +306,7 @@ def test_readme_table_shows_the_matched_family_first_and_the_aubc_range(tmp_path
         "*as the paper compares (baselines on observed images only)*",
         "Random",
     ]
-    line = pages.verdict_line(pages.claims(results, "real_cls"))
+    line = results_blocks.verdict_line(results_blocks.claims(results, "real_cls"))
     assert line == (
         "The paper's claims: 1 seeds agree (untested) (of 1). Extensions: 1 seeds against "
         "(untested) (of 1). Seeds against (untested): Extension claim."
@@ -328,7 +331,7 @@ def test_a_second_runs_readme_block_is_one_aubc_table_of_every_dataset(tmp_path)
     summary["families"] = {"paper": ["random", "duis"], "matched": ["syn_random", "duis"]}
     (tables / "summary.json").write_text(json.dumps(summary))
 
-    lines = pages.aubc_overview(results)
+    lines = results_blocks.aubc_overview(results)
     assert lines[0] == (
         "| Method | real_cls (accuracy, 3 seeds): rounds 1-1 (4.0%) | street_seg (mIoU, 3 seeds) |"
     )
@@ -339,7 +342,7 @@ def test_a_second_runs_readme_block_is_one_aubc_table_of_every_dataset(tmp_path)
         "| *as the paper compares (baselines on observed images only)* | | |",
         "| Random | 40.0 [35.0, 45.0] | 40.0 [35.0, 45.0] |",
     ]
-    block = pages.readme_block(results, "decisive")
+    block = results_blocks.readme_block(results, "decisive")
     assert "\n".join(lines) in block and "Bold:" not in block and "31.0 ± 1.5" not in block
     assert "**real_cls** (3 seeds; synthetic stand-in for real data). The paper's" in block
     assert "**street_seg** (3 seeds). The paper's claims: 1 supported" in block
@@ -366,19 +369,19 @@ def test_keep_absent_updates_one_dataset_of_a_shared_page(tmp_path):
 
     def run(results, *extra):
         argv = [str(results), "--docs", str(docs), "--readme", str(readme)]
-        assert pages.main([*argv, "--page", "decisive", *extra]) == 0
+        assert results_blocks.main([*argv, "--page", "decisive", *extra]) == 0
         return (docs / "decisive.md").read_text(), readme.read_text()
 
     page, text = run(first)
-    synth_section = pages.page_sections(page)["synth_cls"]
-    synth_verdicts = pages.readme_chunks(text)["synth_cls"]
+    synth_section = results_blocks.page_sections(page)["synth_cls"]
+    synth_verdicts = results_blocks.readme_chunks(text)["synth_cls"]
     page, text = run(second, "--keep-absent")
     assert "**budget of real_cls, 24**" in page and "**budget of real_cls**" not in page
-    assert pages.page_sections(page)["synth_cls"] == synth_section
+    assert results_blocks.page_sections(page)["synth_cls"] == synth_section
     assert page.index("## real_cls") < page.index("## synth_cls")
     assert "--keep-absent` (tables of" in page and "; synth_cls kept from an earlier run)" in page
     assert "| DUIS | 70.0 [65.0, 75.0] | 40.0 [35.0, 45.0] |" in text
-    assert pages.readme_chunks(text)["synth_cls"] == synth_verdicts
+    assert results_blocks.readme_chunks(text)["synth_cls"] == synth_verdicts
     assert text.startswith("intro\n\n") and text.endswith("<!-- decisive:end -->\n\nend\n")
 
     page, text = run(second)

@@ -210,7 +210,7 @@ def test_badge_factorised_distances_equal_dense_embeddings():
     q, h = _badge_inputs()
     dense = (q[:, :, None] * h[:, None, :]).reshape(len(q), -1)
     fact = kmeans_pp_seeding(25, np.random.default_rng(3), q=q, h=h)
-    full = kmeans_pp_seeding(25, np.random.default_rng(3), embedding=dense)
+    full = kmeans_pp_seeding(25, np.random.default_rng(3), gradients=dense)
     assert fact.tolist() == full.tolist()
 
 
@@ -218,7 +218,7 @@ def test_badge_spreads_over_far_apart_clusters():
     rng = np.random.default_rng(0)
     centres = np.array([[0.0, 0.0], [1000.0, 0.0], [0.0, 1000.0]])
     emb = np.concatenate([c + rng.normal(0, 0.01, (30, 2)) for c in centres])
-    picks = kmeans_pp_seeding(3, np.random.default_rng(1), embedding=emb, first="random")
+    picks = kmeans_pp_seeding(3, np.random.default_rng(1), gradients=emb, first="random")
     assert sorted(p // 30 for p in picks) == [0, 1, 2]
 
 

@@ -135,7 +135,7 @@ def test_every_consumer_follows_a_newly_registered_kind(tmp_path):
     """Registering a kind is the one step that reaches the plan, the overview, the
     table list, the comparisons and the docs pages; the schema is the one other place
     a kind is written, and it refuses a kind it does not declare."""
-    from spl_al.docs.pages import results_block
+    from spl_al.docs.results_blocks import results_block
 
     config = yaml.safe_load((ROOT / "config" / "config.yaml").read_text())
     config["results"] = "results"

@@ -1,9 +1,30 @@
 """spl-al: condition-aware active learning for single-photon LiDAR (SPL) perception.
 
-Areas (see docs/design.md for the map):
+Areas, top layer first (docs/design.md is the map; a module imports only its own
+package and the layers below it):
 
-- ``spl_al.photon``: the SPL measurement model, photon simulation, reconstruction, SIV.
-- ``spl_al.bench``: benchmarks that print tables (``python -m spl_al.bench NAME``).
+- tools: ``spl_al.bench`` (benchmarks that print tables: ``python -m spl_al.bench
+  NAME``), ``spl_al.docs`` (the generated docs pages and README blocks), ``python -m
+  spl_al export|predict`` (``__main__``).
+- workflow steps: ``spl_al.experiment`` (the plan of a config, one function per rule,
+  what `all` asks for), ``spl_al.warm`` (how a job runs: the warm job server).
+- outputs: ``spl_al.report`` (tables, curves, statistics, claims), ``spl_al.deploy``
+  (model cards, ONNX export, prediction), ``spl_al.labeling`` (labeling batches, Label
+  Studio).
+- round 0: ``spl_al.cold_start`` (random, stratified, or a first batch without labels).
+- active learning: ``spl_al.pool`` (labeled sets, the simulated oracle),
+  ``spl_al.query`` (a round's query), ``spl_al.scoring`` (the forward passes a strategy
+  needs), ``spl_al.linear_probe`` (the embedding framework's classifier).
+- learning: ``spl_al.strategies`` (every acquisition strategy behind one registry),
+  ``spl_al.training`` (training, evaluation, precision, the self-supervised encoder).
+- ``spl_al.models`` (CNN, ResNet-18, U-Net, PointNet++), ``spl_al.data`` (datasets,
+  their sources and files, SIV variants), ``spl_al.photon`` (the SPL measurement
+  model, photon simulation, reconstruction, captures), ``spl_al.scenes`` (procedural
+  geometry).
+- kit: ``spl_al.config``, ``spl_al.frameworks`` (framework kinds and feature spaces,
+  declared once), ``spl_al.plotting``.
+- ground: ``spl_al.atomic`` (atomic writes), ``spl_al.label_codes``, ``spl_al.layout``
+  (where a run's files lie), ``spl_al.seeding`` (every random stream).
 """
 
 __version__ = "0.1.0"

@@ -10,7 +10,7 @@ knows of it, and every other place reads it from ``TABLE_KINDS``:
 - ``caption`` and ``build``: its table, results/{dataset}/tables/{name}.csv/.md/.tex,
   from the round records (the workflow's ``table`` rule, whose wildcard is the kinds);
 - ``rows``: its paired comparisons (``comparisons``: comparisons.csv, the claims);
-- ``title``: its heading in docs/results.md (``docs.pages``);
+- ``title``: its heading in docs/results.md (``docs.results_blocks``);
 - ``needs_levels``: made only for images with MSPPP levels.
 
 config/schema.yaml declares each kind's keys under ``experiments``;

@@ -72,8 +72,8 @@ def pixel_gradient_embedding(probs, features, valid=None) -> np.ndarray:
     return emb.reshape(len(p), -1).astype(np.float32)
 
 
-class _Embedding:
-    """Squared distances to one embedding, from rank-one factors or dense vectors.
+class _GradientPoints:
+    """Squared distances between gradient embeddings, from rank-one factors or dense vectors.
 
     Dense (n, D) embeddings e: ||e_i - e_j||^2 = |e_i|^2 + |e_j|^2 - 2 e_i . e_j on
     e - mean(e) (``spl_al.strategies.distances``). Rank-one factors q (n, C), h (n, d):
@@ -126,7 +126,7 @@ def kmeans_pp_seeding(
     *,
     q=None,
     h=None,
-    embedding=None,
+    gradients=None,
     first: str = "max_norm",
 ) -> np.ndarray:
     """k-means++ seeding (D^2 sampling) over gradient embeddings; k distinct positions.
@@ -139,11 +139,11 @@ def kmeans_pp_seeding(
 
     Args:
         k: number of centres (<= n).
-        q, h: rank-one factors (n, C), (n, d); or ``embedding`` (n, D) dense.
+        q, h: rank-one factors (n, C), (n, d); or ``gradients`` (n, D) dense.
     """
     if first not in FIRST_CENTRE:
         raise ValueError(f"first must be one of {FIRST_CENTRE}, got {first!r}.")
-    emb = _Embedding(dense=embedding) if embedding is not None else _Embedding(q, h)
+    emb = _GradientPoints(dense=gradients) if gradients is not None else _GradientPoints(q, h)
     n = emb.n
     if not 0 <= k <= n:
         raise ValueError(f"k must be in [0, {n}], got {k}.")
@@ -196,5 +196,5 @@ class BadgeStrategy(Strategy):
 
     def _select(self, inputs: StrategyInputs, k: int, rng: np.random.Generator) -> np.ndarray:
         if inputs.grad_embedding is not None:
-            return kmeans_pp_seeding(k, rng, embedding=inputs.grad_embedding, first=self.first)
+            return kmeans_pp_seeding(k, rng, gradients=inputs.grad_embedding, first=self.first)
         return kmeans_pp_seeding(k, rng, q=inputs.grad_q, h=inputs.grad_h, first=self.first)

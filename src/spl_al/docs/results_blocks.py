@@ -23,7 +23,7 @@ what the blocks said of them (their page section, README lines and AUBC column),
 runs of one dataset each, made in different folders or on different days, share a page.
 Run it from the repository root:
 
-    python -m spl_al.docs.pages results/
+    python -m spl_al.docs.results_blocks results/
 """
 
 from __future__ import annotations
@@ -45,7 +45,7 @@ from spl_al.report.claims import AGAINST, CONTRADICTED, SUPPORTED, VERDICTS
 from spl_al.report.display import METRIC_WORDS
 from spl_al.report.table_kinds import TABLE_KINDS
 
-COMMAND = "python -m spl_al.docs.pages"
+COMMAND = "python -m spl_al.docs.results_blocks"
 BLOCK = "results"
 # datasets in this order first (the default config's), then any other alphabetically
 ORDER = ("real_cls", "synth_cls", "street_seg", "street_pc")
