@@ -29,7 +29,7 @@ Run it from the repository root:
 from __future__ import annotations
 
 import argparse
-import csv
+import functools
 import json
 import math
 import shutil
@@ -37,18 +37,22 @@ import sys
 from datetime import UTC, datetime
 from pathlib import Path
 
+import yaml
+
 from spl_al.atomic import atomic_write_text
 from spl_al.docs.markers import block, markers, replace_block
 from spl_al.frameworks import DEFAULT, EMBEDDING, framework_names, get_framework
 from spl_al.layout import figure_file, table_file
 from spl_al.report.claims import AGAINST, CONTRADICTED, SUPPORTED, VERDICTS
 from spl_al.report.display import METRIC_WORDS
+from spl_al.report.summary import aubc_text
 from spl_al.report.table_kinds import TABLE_KINDS
+from spl_al.report.writers import read_rows
 
 COMMAND = "python -m spl_al.docs.results_blocks"
 BLOCK = "results"
-# datasets in this order first (the default config's), then any other alphabetically
-ORDER = ("real_cls", "synth_cls", "street_seg", "street_pc")
+DEFAULT_CONFIG = Path(__file__).resolve().parents[3] / "config" / "config.yaml"
+"""The checkout's default config, whose datasets come first on a page, in its order."""
 # results/{dataset}/figures/{source}.png -> docs/figures/{dataset}_{name}.png
 FIGURES = (
     ("curves", "budget", "budget curves, mean ± std over seeds"),
@@ -70,9 +74,19 @@ def _figure(results: Path, dataset: str, name: str) -> Path:
 
 
 def _in_order(names) -> list[str]:
-    """``names`` in ORDER first, then the others alphabetically."""
+    """``names`` in the default config's order first (``DEFAULT_CONFIG``: the datasets
+    a user meets first), then the others alphabetically."""
     names = set(names)
-    return [d for d in ORDER if d in names] + sorted(names - set(ORDER))
+    order = [d for d in default_datasets() if d in names]
+    return order + sorted(names - set(order))
+
+
+@functools.cache
+def default_datasets() -> tuple[str, ...]:
+    """The datasets the default config defines, in its order (none outside a checkout)."""
+    if not DEFAULT_CONFIG.is_file():
+        return ()
+    return tuple(yaml.safe_load(DEFAULT_CONFIG.read_text()).get("datasets") or {})
 
 
 def datasets(results: Path) -> list[str]:
@@ -143,11 +157,6 @@ def overview_columns(block: str) -> dict[str, Column]:
     return columns
 
 
-def _rows(path: Path) -> list[dict]:
-    with path.open(newline="") as handle:
-        return list(csv.DictReader(handle))
-
-
 def _num(value) -> float:
     try:
         return float(value)
@@ -205,21 +214,11 @@ def _families(summary: dict, methods: list[str]) -> list[tuple[str, list[str]]]:
     ]
 
 
-def _aubc(summary: dict, method: str, scale: float) -> str:
-    entry = summary.get("methods", {}).get(method, {}).get("aubc")
-    if not entry or entry.get("mean") is None:
-        return "-"
-    mean, low, high = (_num(entry.get(k)) * scale for k in ("mean", "ci_low", "ci_high"))
-    if math.isnan(low) or math.isnan(high):
-        return f"{mean:.1f}"
-    return f"{mean:.1f} [{low:.1f}, {high:.1f}]"
-
-
 def compact_table(results: Path, dataset: str) -> list[str]:
     """Budget columns per method and the AUBC over the query rounds with its 95%
     interval, as Markdown lines; the matched-training family first, then the paper's
     comparison (DUIS in both)."""
-    budget = _rows(_table(results, dataset, "budget.csv"))
+    budget = read_rows(_table(results, dataset, "budget.csv"))
     summary = _summary(results, dataset)
     scale = _num(budget[0].get("scale", 100)) if budget else 100.0
     cols = sorted({(int(r["col_pos"]), r["col"]) for r in budget})
@@ -239,7 +238,7 @@ def compact_table(results: Path, dataset: str) -> list[str]:
         for method in family:
             row = label[method]
             values = [_cell(cells[(row, c)]) if (row, c) in cells else "-" for _, c in cols]
-            aubc = _aubc(summary, method, scale)
+            aubc = aubc_text(summary, method, scale)
             lines.append(f"| {row} | " + " | ".join(values) + f" | {aubc} |")
     return lines
 
@@ -247,7 +246,7 @@ def compact_table(results: Path, dataset: str) -> list[str]:
 def claims(results: Path, dataset: str) -> list[dict]:
     """The rows of a dataset's claims.csv (none when the run made no claims)."""
     path = _table(results, dataset, "claims.csv")
-    return _rows(path) if path.exists() else []
+    return read_rows(path) if path.exists() else []
 
 
 def verdict_line(rows: list[dict]) -> str:
@@ -287,7 +286,7 @@ def _seeds(summary: dict, budget: list[dict]) -> str:
 
 
 def _heading(results: Path, dataset: str) -> str:
-    budget = _rows(_table(results, dataset, "budget.csv"))
+    budget = read_rows(_table(results, dataset, "budget.csv"))
     summary = _summary(results, dataset)
     text = f"{_metric(budget)} (%), mean ± std over {_seeds(summary, budget)}"
     if _is_standin(budget):
@@ -297,7 +296,7 @@ def _heading(results: Path, dataset: str) -> str:
 
 def _column(results: Path, dataset: str) -> Column:
     """A dataset's column of the AUBC overview, rows in its families' order."""
-    budget = _rows(_table(results, dataset, "budget.csv"))
+    budget = read_rows(_table(results, dataset, "budget.csv"))
     summary = _summary(results, dataset)
     scale = _num(budget[0].get("scale", 100)) if budget else 100.0
     order = sorted({(int(r["row_pos"]), r["row"], r["method"]) for r in budget})
@@ -306,7 +305,7 @@ def _column(results: Path, dataset: str) -> Column:
     groups = [family for _, family in _families(summary, methods)]
     keys = ["matched", "paper"] if len(groups) == 2 else ["paper"]
     family_of = {label[m]: key for key, group in zip(keys, groups, strict=True) for m in group}
-    cells = {label[m]: _aubc(summary, m, scale) for group in groups for m in group}
+    cells = {label[m]: aubc_text(summary, m, scale) for group in groups for m in group}
     span = _span(summary, methods).strip()
     header = f"{dataset} ({_metric(budget)}, {_seeds(summary, budget)})"
     return (f"{header}: {span}" if span else header), cells, family_of
@@ -371,7 +370,7 @@ def readme_block(
     lines += ["**Area under the budget curve over the query rounds** (%) [95% CI]:", ""]
     lines += [*aubc_overview(results, kept), ""]
     for dataset in present:
-        budget = _rows(_table(results, dataset, "budget.csv"))
+        budget = read_rows(_table(results, dataset, "budget.csv"))
         about = _seeds(_summary(results, dataset), budget)
         if _is_standin(budget):
             about += "; synthetic stand-in for real data"
@@ -413,7 +412,7 @@ def _resolved_comparisons(results: Path, dataset: str) -> list[str]:
     path = _table(results, dataset, "comparisons.csv")
     if not path.exists():
         return []
-    rows = _rows(path)
+    rows = read_rows(path)
     resolved = [r for r in rows if str(r.get("resolved", "")).lower() == "true"]
     lines = [
         f"{len(resolved)} of {len(rows)} paired comparisons are resolved "
@@ -440,7 +439,7 @@ def _robustness(results: Path, dataset: str) -> list[str]:
     path = _table(results, dataset, "robustness_diff.csv")
     if not path.exists():
         return []
-    rows = _rows(path)
+    rows = read_rows(path)
     better = sum(str(r.get("resolved", "")).lower() == "true" and _num(r["diff"]) > 0 for r in rows)
     worse = sum(str(r.get("resolved", "")).lower() == "true" and _num(r["diff"]) < 0 for r in rows)
     baseline = rows[0].get("baseline", "the best baseline") if rows else ""
@@ -572,7 +571,7 @@ def _aubc_table(results: Path, dataset: str, summary: dict) -> list[str]:
     if not methods:
         return []
     scale = 100.0
-    budget = _rows(_table(results, dataset, "budget.csv"))
+    budget = read_rows(_table(results, dataset, "budget.csv"))
     if budget:
         scale = _num(budget[0].get("scale", 100))
     lines = [
@@ -589,7 +588,7 @@ def _aubc_table(results: Path, dataset: str, summary: dict) -> list[str]:
         )
         span = (entry.get("aubc") or {}).get("span", "")
         lines.append(
-            f"| {names.get(method, method)} | {span} | {_aubc(summary, method, scale)} | "
+            f"| {names.get(method, method)} | {span} | {aubc_text(summary, method, scale)} | "
             f"{entry.get('n_seeds', '')} | {final} |"
         )
     return [*lines, ""]

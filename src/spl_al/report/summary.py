@@ -107,3 +107,23 @@ def encoders_of(d: pd.DataFrame) -> list[dict]:
             }
         )
     return out
+
+
+def aubc_text(summary: dict, method: str, scale: float = 100.0) -> str:
+    """A method's AUBC in a summary (``summary``'s JSON) as a page quotes it:
+    "mean [95% low, high]" times ``scale``, the mean alone without an interval, "-"
+    for a method without one."""
+    entry = summary.get("methods", {}).get(method, {}).get("aubc")
+    if not entry or entry.get("mean") is None:
+        return "-"
+
+    def number(key) -> float:
+        try:
+            return float(entry.get(key)) * scale
+        except (TypeError, ValueError):
+            return math.nan
+
+    mean, low, high = number("mean"), number("ci_low"), number("ci_high")
+    if math.isnan(low) or math.isnan(high):
+        return f"{mean:.1f}"
+    return f"{mean:.1f} [{low:.1f}, {high:.1f}]"

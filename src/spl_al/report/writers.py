@@ -6,6 +6,7 @@ target, so a killed job never leaves a half-written file that looks complete.
 
 from __future__ import annotations
 
+import csv
 from pathlib import Path
 
 import pandas as pd
@@ -45,6 +46,12 @@ def write_table(
         "md": atomic_write_text(stem.parent / f"{stem.name}.md", md),
         "tex": atomic_write_text(stem.parent / f"{stem.name}.tex", tex),
     }
+
+
+def read_rows(path) -> list[dict]:
+    """A table's CSV as rows of text, as written (what a page quotes: "" for a blank)."""
+    with Path(path).open(newline="") as handle:
+        return list(csv.DictReader(handle))
 
 
 def read_table(path) -> pd.DataFrame:
