@@ -1,6 +1,8 @@
 """The documentation: links resolve, generated pages match their generators."""
 
 import csv
+import importlib
+import importlib.util
 import json
 import re
 from pathlib import Path
@@ -58,6 +60,46 @@ def test_relative_links_resolve(page):
         elif anchor and dest.suffix == ".md" and anchor not in anchors(dest):
             broken.append(f"{target} (no heading with anchor #{anchor} in {dest.name})")
     assert not broken, f"{page.relative_to(ROOT)}: broken links: {broken}"
+
+
+def _units() -> list[str]:
+    """spl_al's top-level modules and packages, and spl_al.experiment's modules."""
+    src = ROOT / "src" / "spl_al"
+    units = [
+        f"spl_al.{p.stem}"
+        for p in sorted(src.iterdir())
+        if not p.name.startswith("_")
+        and (p.suffix == ".py" or (p.is_dir() and (p / "__init__.py").exists()))
+    ]
+    return units + [
+        f"spl_al.experiment.{p.stem}"
+        for p in sorted((src / "experiment").glob("*.py"))
+        if not p.name.startswith("_")
+    ]
+
+
+def test_the_design_map_names_every_unit_and_nothing_that_does_not_exist():
+    """docs/design.md's map matches the code: every top-level unit and every module of
+    spl_al.experiment is named there, and every `spl_al....` name it gives exists."""
+    design = (ROOT / "docs" / "design.md").read_text()
+    quoted = set(re.findall(r"`([\w.]+)`", design))
+    unnamed = [u for u in _units() if u not in quoted and u.rpartition(".")[2] not in quoted]
+    assert not unnamed, f"docs/design.md does not name {unnamed}"
+
+    def is_module(name: str) -> bool:
+        try:
+            return importlib.util.find_spec(name) is not None
+        except ModuleNotFoundError:  # a parent that is not a package
+            return False
+
+    missing = []
+    for name in sorted(n for n in quoted if n.startswith("spl_al.")):
+        module, attr = name, None
+        while module and not is_module(module):
+            module, _, attr = module.rpartition(".")
+        if not module or (attr and not hasattr(importlib.import_module(module), attr)):
+            missing.append(name)
+    assert not missing, f"docs/design.md names what does not exist: {missing}"
 
 
 def test_configuration_page_is_up_to_date():
