@@ -89,6 +89,14 @@ def test_a_cold_start_is_seeded_distinct_and_its_strategy_decides(strategy):
     assert sorted(int(i) % 3 for i in three) == [0, 1, 2]
 
 
+def test_a_cold_start_asks_for_what_its_strategy_requires():
+    """ProbCover declares its class count required (``Strategy.required``): without it
+    the cold start stops in one sentence; the others need none."""
+    with pytest.raises(ValueError, match="a probcover cold start needs n_classes"):
+        first_batch(blobs(), 3, seed=1, strategy="probcover")
+    assert len(first_batch(blobs(), 3, seed=1, strategy="maxherding")[0]) == 3
+
+
 def test_typiclust_first_batch_is_the_cluster_centres():
     """TypiClust from zero labels picks the densest sample of each cluster."""
     x = blobs()

@@ -107,10 +107,13 @@ def first_batch(
     n = len(x)
     if int(size) != size or not 1 <= size <= n:
         raise ValueError(f"size must be an integer in [1, {n}], got {size!r}.")
-    params = {"n_classes": int(n_classes)} if strategy == "probcover" else {}
-    if strategy == "probcover" and n_classes is None:
-        raise ValueError("a ProbCover cold start needs n_classes, the task's class count.")
-    chooser = get(strategy, **params)
+    # what the strategy declares it cannot select without (ProbCover's class count)
+    given = {"n_classes": None if n_classes is None else int(n_classes)}
+    needed = get(strategy).required
+    missing = [p for p in needed if given.get(p) is None]
+    if missing:
+        raise ValueError(f"a {strategy} cold start needs {', '.join(missing)}, none given.")
+    chooser = get(strategy, **{p: given[p] for p in needed})
     inputs = StrategyInputs(
         unlabeled_idx=np.arange(n, dtype=np.int64),
         labeled_idx=np.zeros(0, dtype=np.int64),
