@@ -90,6 +90,17 @@ def test_a_name_is_registered_once_and_an_unknown_one_is_refused():
         unregister_framework(frameworks.SUPERVISED.name)
 
 
+def test_the_schema_lists_exactly_the_registered_names():
+    """config/schema.yaml is the one other place the names are written (a config is
+    checked against it before any job runs): a method's ``features`` and an
+    experiment's ``framework`` key list exactly the registered ones."""
+    schema = yaml.safe_load((ROOT / "config" / "schema.yaml").read_text())
+    method = schema["properties"]["methods"]["additionalProperties"]["properties"]
+    assert method["features"]["enum"] == list(frameworks.feature_space_names())
+    budget = schema["$defs"]["dataset"]["properties"]["experiments"]["properties"]["budget"]
+    assert budget["properties"]["framework"]["enum"] == list(frameworks.framework_names())
+
+
 def test_the_builtin_kinds_keep_their_config_and_results_layout():
     entry = {
         "experiments": {"budget": {"seeds": [1]}},
