@@ -41,9 +41,10 @@ def run_folder(results, dataset: str, method: str, seed) -> str:
     return f"{results}/{dataset}/{method}/seed{seed}"
 
 
-def round_file(results, dataset: str, method: str, seed, round_, name: str) -> str:
-    """File ``name`` of round ``round_`` of a run: labeled.json, model.pt, ..."""
-    return f"{run_folder(results, dataset, method, seed)}/round{round_}/{name}"
+def round_file(run, round_, name: str) -> str:
+    """File ``name`` of round ``round_`` of a run (``run_folder``): labeled.json,
+    model.pt, metrics.json, scores.npz."""
+    return f"{run}/round{round_}/{name}"
 
 
 def table_file(folder, name: str) -> str:

@@ -161,7 +161,8 @@ def pick_agreement(results: Path, dataset: str) -> list[list[str]]:
         shares = []
         for seed in budget["seeds"]:
             for r in range(int(budget["rounds"]) - 1):
-                round_file = partial(layout.round_file, results, dataset, name, seed, r)
+                run = layout.run_folder(results, dataset, name, seed)
+                round_file = partial(layout.round_file, run, r)
                 labeled_path = (
                     round_file("labeled.json")
                     if r

@@ -239,10 +239,7 @@ def _record(facts: ProbeData, model, method: str, *, which, n_labeled, n_images)
     correct = model.predict_proba(facts.test).argmax(axis=1) == facts.test_labels
     levels = facts.test_levels
     return round_record(
-        dataset,
-        method,
-        seed,
-        round_,
+        (dataset, method, seed, round_),
         n_labeled=n_labeled,
         n_pool=len(facts.train),
         n_total=facts.n_total,

@@ -147,10 +147,7 @@ def _metrics_record(facts, setup, which: RoundId, n_labeled, metrics, extra) -> 
     ratio_of = setup.get("ratio_of", "train")
     levels = metrics.get("per_level", {})
     return round_record(
-        which.dataset,
-        which.method,
-        which.seed,
-        which.round,
+        (which.dataset, which.method, which.seed, which.round),
         n_labeled=n_labeled,
         n_pool=facts["n_train"],
         n_total=facts["n_samples"] if ratio_of == "all" else facts["n_train"],

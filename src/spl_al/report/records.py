@@ -111,10 +111,7 @@ def _check_optional(record: Mapping, bad) -> None:
 
 
 def round_record(
-    dataset: str,
-    method: str,
-    seed: int,
-    round_: int,
+    which: tuple[str, str, int, int],
     *,
     n_labeled: int,
     n_pool: int,
@@ -128,11 +125,12 @@ def round_record(
     """The metrics record of one round, the one both frameworks write and
     ``load_records`` reads (``validate_record``).
 
-    ``n_total``: the ratio's denominator; ``per_level``: level -> the metric on that
-    MSPPP level's test images, those without a known level ("unknown": folder data
-    without conditions, counted in ``value``) or without a value left out; ``extra``:
-    what the framework adds after the shared keys (training images and steps, timing,
-    precision, encoder, details)."""
+    ``which``: (dataset, method, seed, round); ``n_total``: the ratio's denominator;
+    ``per_level``: level -> the metric on that MSPPP level's test images, those without
+    a known level ("unknown": folder data without conditions, counted in ``value``) or
+    without a value left out; ``extra``: what the framework adds after the shared keys
+    (training images and steps, timing, precision, encoder, details)."""
+    dataset, method, seed, round_ = which
     return {
         "dataset": dataset,
         "method": method,
