@@ -48,8 +48,8 @@ class FrameworkKind:
     ``results/{dataset}/`` ("" for the dataset's folder itself); ``model`` and
     ``short``: what a round fits, in a sentence and in a figure title's words (empty:
     the configured network, said nowhere), from which ``note`` and ``claims_words``
-    are made; ``measured_at``: the
-    precision every measurement is made at whatever the run's (None: the run's own);
+    are made; ``measured_at``: the precision every measurement is made at whatever the
+    run's (None: the run's own);
     ``features``: the feature space every method selects on (None: each method's own
     ``features``); ``unit``: what its statistics treat as independent (``seed``, or
     ``encoder`` where seeds share an encoder)."""
@@ -74,7 +74,8 @@ class FrameworkKind:
         """What its tables, figures and summaries say of it ("" for the default)."""
         if not self.model:
             return ""
-        return f"{self.name} framework: each round {self.model}, {self.measured_at}"
+        precision = self.measured_at or "at the run's precision"
+        return f"{self.name} framework: each round {self.model}, {precision}"
 
     def claims_words(self, precision: str) -> str:
         """How a claims table's title says where its models came from."""
