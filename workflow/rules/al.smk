@@ -9,7 +9,7 @@
 rule initial_set:
     input:
         unpack(initial_embeddings),
-        observed=f"{RESULTS}/{{dataset}}/data/observed.npz",
+        observed=OBSERVED_FILE,
     output:
         f"{RESULTS}/{{dataset}}/{{initial_dir}}/seed{{seed}}.json",
     log:
@@ -36,7 +36,7 @@ rule initial_set:
 
 rule train_initial:
     input:
-        data=f"{RESULTS}/{{dataset}}/data/dataset.npz",
+        data=DATASET_FILE,
         labeled=f"{RESULTS}/{{dataset}}/{{initial_dir}}/seed{{seed}}.json",
     output:
         model=f"{RESULTS}/{{dataset}}/{{initial_dir}}/seed{{seed}}/m{{m}}/model.pt",
@@ -73,7 +73,7 @@ rule train:
         unpack(initial_fit),
         unpack(warm_start_model),
         unpack(selection_embeddings),
-        data=f"{RESULTS}/{{dataset}}/data/dataset.npz",
+        data=DATASET_FILE,
         labeled=labeled_input,
         labels=given_labels,
     output:

@@ -46,6 +46,13 @@ METHODS = method_specs(config)
 RUN = layout.run_folder(RESULTS, "{dataset}", "{method}", "{seed}")
 
 
+# A dataset's data files (spl_al.layout): its sample groups and its observed images.
+DATASET_FILE = layout.data_file(RESULTS, "{dataset}")
+OBSERVED_FILE = layout.data_file(RESULTS, "{dataset}", "observed.npz")
+# The supervised framework's folder of a dataset: its tables and figures go under it.
+SUPERVISED_DIR = SUPERVISED.folder(RESULTS, "{dataset}")
+
+
 # Datasets whose labels come from a person (oracle: human) and from the data.
 HUMAN = [d for d in DATASETS if config["datasets"][d].get("oracle") == "human"]
 

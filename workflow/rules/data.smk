@@ -5,7 +5,7 @@ rule dataset:
     input:
         release=lambda w: capture_release(w.dataset),
     output:
-        f"{RESULTS}/{{dataset}}/data/observed.npz",
+        OBSERVED_FILE,
     log:
         f"{RESULTS}/logs/{{dataset}}/dataset.log",
     benchmark:
@@ -28,7 +28,7 @@ rule dataset:
 
 rule variants_shard:
     input:
-        f"{RESULTS}/{{dataset}}/data/observed.npz",
+        OBSERVED_FILE,
     output:
         f"{RESULTS}/{{dataset}}/data/variants/shard{{shard}}.npz",
     log:
@@ -53,13 +53,13 @@ rule variants_shard:
 
 rule variants_merge:
     input:
-        observed=f"{RESULTS}/{{dataset}}/data/observed.npz",
+        observed=OBSERVED_FILE,
         shards=lambda w: expand(
             f"{RESULTS}/{w.dataset}/data/variants/shard{{shard}}.npz",
             shard=range(n_shards(w.dataset)),
         ),
     output:
-        f"{RESULTS}/{{dataset}}/data/dataset.npz",
+        DATASET_FILE,
     log:
         f"{RESULTS}/logs/{{dataset}}/variants_merge.log",
     benchmark:
@@ -79,16 +79,16 @@ rule variants_merge:
 
 rule data_pictures:
     input:
-        f"{RESULTS}/{{dataset}}/data/dataset.npz",
+        DATASET_FILE,
     output:
         contact=report(
-            f"{RESULTS}/{{dataset}}/figures/contact_sheet.png",
+            layout.figure_file(SUPERVISED_DIR, "contact_sheet.png"),
             caption="../report/contact_sheet.rst",
             category="{dataset}",
             subcategory="Data",
         ),
         variants=report(
-            f"{RESULTS}/{{dataset}}/figures/variants_sheet.png",
+            layout.figure_file(SUPERVISED_DIR, "variants_sheet.png"),
             caption="../report/variants_sheet.rst",
             category="{dataset}",
             subcategory="Data",

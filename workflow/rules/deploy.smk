@@ -33,7 +33,7 @@ rule export_onnx:
     input:
         model=lambda w: final_file(w, "model.pt"),
         card=lambda w: final_file(w, "model.card.json"),
-        data=f"{RESULTS}/{{dataset}}/data/dataset.npz",
+        data=DATASET_FILE,
     output:
         onnx=f"{RESULTS}/{{dataset}}/models/{{method}}/seed{{seed}}/final.onnx",
         card=f"{RESULTS}/{{dataset}}/models/{{method}}/seed{{seed}}/final.card.json",

@@ -9,7 +9,7 @@
 
 rule encoder:
     input:
-        data=f"{RESULTS}/{{dataset}}/data/dataset.npz",
+        data=DATASET_FILE,
     output:
         encoder=f"{EMBEDDING}/encoders/seed{{eseed}}/encoder.pt",
         card=f"{EMBEDDING}/encoders/seed{{eseed}}/card.json",
@@ -45,7 +45,7 @@ rule encoder:
 rule probe_runs:
     input:
         unpack(probe_runs_encoders),
-        data=f"{RESULTS}/{{dataset}}/data/dataset.npz",
+        data=DATASET_FILE,
     output:
         f"{EMBEDDING}/runs/{{method}}.json",
     log:
@@ -84,13 +84,13 @@ use rule table as embedding_table with:
         metrics=lambda w: probe_runs_files(w.dataset),
     output:
         csv=report(
-            f"{EMBEDDING}/tables/{{table}}.csv",
+            layout.table_file(EMBEDDING, "{table}.csv"),
             caption="../report/table.rst",
             category="{dataset}",
             subcategory="Embedding framework",
         ),
-        md=f"{EMBEDDING}/tables/{{table}}.md",
-        tex=f"{EMBEDDING}/tables/{{table}}.tex",
+        md=layout.table_file(EMBEDDING, "{table}.md"),
+        tex=layout.table_file(EMBEDDING, "{table}.tex"),
     log:
         f"{EMBEDDING_LOGS}/table_{{table}}.log",
     benchmark:
@@ -120,12 +120,12 @@ use rule curves as embedding_curves with:
         ),
     output:
         png=report(
-            f"{EMBEDDING}/figures/curves.png",
+            layout.figure_file(EMBEDDING, "curves.png"),
             caption="../report/curves.rst",
             category="{dataset}",
             subcategory="Embedding framework",
         ),
-        pdf=f"{EMBEDDING}/figures/curves.pdf",
+        pdf=layout.figure_file(EMBEDDING, "curves.pdf"),
     log:
         f"{EMBEDDING_LOGS}/curves.log",
     benchmark:
@@ -146,12 +146,12 @@ use rule curves as embedding_curves with:
 use rule embedding_curves as embedding_level_curves with:
     output:
         png=report(
-            f"{EMBEDDING}/figures/level_curves.png",
+            layout.figure_file(EMBEDDING, "level_curves.png"),
             caption="../report/level_curves.rst",
             category="{dataset}",
             subcategory="Embedding framework",
         ),
-        pdf=f"{EMBEDDING}/figures/level_curves.pdf",
+        pdf=layout.figure_file(EMBEDDING, "level_curves.pdf"),
     log:
         f"{EMBEDDING_LOGS}/level_curves.log",
     benchmark:
@@ -174,7 +174,7 @@ use rule summary as embedding_summary with:
         metrics=lambda w: probe_runs_files(w.dataset),
     output:
         report(
-            f"{EMBEDDING}/tables/summary.json",
+            layout.table_file(EMBEDDING, "summary.json"),
             caption="../report/summary.rst",
             category="{dataset}",
             subcategory="Embedding framework",
@@ -198,33 +198,33 @@ use rule stats as embedding_stats with:
         metrics=lambda w: probe_runs_files(w.dataset),
     output:
         comparisons_csv=report(
-            f"{EMBEDDING}/tables/comparisons.csv",
+            layout.table_file(EMBEDDING, "comparisons.csv"),
             caption="../report/comparisons.rst",
             category="{dataset}",
             subcategory="Embedding framework",
         ),
-        comparisons_md=f"{EMBEDDING}/tables/comparisons.md",
+        comparisons_md=layout.table_file(EMBEDDING, "comparisons.md"),
         claims_csv=report(
-            f"{EMBEDDING}/tables/claims.csv",
+            layout.table_file(EMBEDDING, "claims.csv"),
             caption="../report/claims.rst",
             category="{dataset}",
             subcategory="Embedding framework",
         ),
-        claims_md=f"{EMBEDDING}/tables/claims.md",
+        claims_md=layout.table_file(EMBEDDING, "claims.md"),
         decomposition_csv=report(
-            f"{EMBEDDING}/tables/decomposition.csv",
+            layout.table_file(EMBEDDING, "decomposition.csv"),
             caption="../report/decomposition.rst",
             category="{dataset}",
             subcategory="Embedding framework",
         ),
-        decomposition_md=f"{EMBEDDING}/tables/decomposition.md",
+        decomposition_md=layout.table_file(EMBEDDING, "decomposition.md"),
         aubc_png=report(
-            f"{EMBEDDING}/figures/aubc.png",
+            layout.figure_file(EMBEDDING, "aubc.png"),
             caption="../report/aubc.rst",
             category="{dataset}",
             subcategory="Embedding framework",
         ),
-        aubc_pdf=f"{EMBEDDING}/figures/aubc.pdf",
+        aubc_pdf=layout.figure_file(EMBEDDING, "aubc.pdf"),
     log:
         f"{EMBEDDING_LOGS}/stats.log",
     benchmark:

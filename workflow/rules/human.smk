@@ -9,7 +9,7 @@
 rule initial_set_human:
     input:
         unpack(initial_embeddings),
-        observed=f"{RESULTS}/{{dataset}}/data/observed.npz",
+        observed=OBSERVED_FILE,
         seed_labels=lambda w: config["datasets"][w.dataset].get("seed_labels") or [],
     output:
         f"{RESULTS}/{{dataset}}/initial/seed{{seed}}.json",
@@ -70,7 +70,7 @@ rule query_human:
 
 rule to_label_initial:
     input:
-        data=f"{RESULTS}/{{dataset}}/data/dataset.npz",
+        data=DATASET_FILE,
         request=f"{RESULTS}/{{dataset}}/initial/seed{{seed}}.json",
     output:
         directory(f"{RESULTS}/{{dataset}}/initial/seed{{seed}}/to_label"),
@@ -101,7 +101,7 @@ rule to_label_initial:
 rule to_label_round:
     input:
         unpack(batch_model),
-        data=f"{RESULTS}/{{dataset}}/data/dataset.npz",
+        data=DATASET_FILE,
         request=f"{RUN}/round{{round}}/query.json",
     output:
         directory(f"{RUN}/round{{round}}/to_label"),
@@ -134,7 +134,7 @@ rule to_label_round:
 
 rule accept_labels:
     input:
-        data=f"{RESULTS}/{{dataset}}/data/dataset.npz",
+        data=DATASET_FILE,
         request=labeling_request,
         batch=labeling_batch,
         before=labels_before,

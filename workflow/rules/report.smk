@@ -17,13 +17,13 @@ rule table:
         metrics=lambda w: metrics_files(w.dataset),
     output:
         csv=report(
-            f"{RESULTS}/{{dataset}}/tables/{{table}}.csv",
+            layout.table_file(SUPERVISED_DIR, "{table}.csv"),
             caption="../report/table.rst",
             category="{dataset}",
             subcategory="Tables",
         ),
-        md=f"{RESULTS}/{{dataset}}/tables/{{table}}.md",
-        tex=f"{RESULTS}/{{dataset}}/tables/{{table}}.tex",
+        md=layout.table_file(SUPERVISED_DIR, "{table}.md"),
+        tex=layout.table_file(SUPERVISED_DIR, "{table}.tex"),
     log:
         f"{RESULTS}/logs/{{dataset}}/table_{{table}}.log",
     benchmark:
@@ -54,12 +54,12 @@ rule curves:
         metrics=lambda w: budget_metrics_files(w.dataset),
     output:
         png=report(
-            f"{RESULTS}/{{dataset}}/figures/curves.png",
+            layout.figure_file(SUPERVISED_DIR, "curves.png"),
             caption="../report/curves.rst",
             category="{dataset}",
             subcategory="Curves",
         ),
-        pdf=f"{RESULTS}/{{dataset}}/figures/curves.pdf",
+        pdf=layout.figure_file(SUPERVISED_DIR, "curves.pdf"),
     log:
         f"{RESULTS}/logs/{{dataset}}/curves.log",
     benchmark:
@@ -87,12 +87,12 @@ rule curves:
 use rule curves as level_curves with:
     output:
         png=report(
-            f"{RESULTS}/{{dataset}}/figures/level_curves.png",
+            layout.figure_file(SUPERVISED_DIR, "level_curves.png"),
             caption="../report/level_curves.rst",
             category="{dataset}",
             subcategory="Curves",
         ),
-        pdf=f"{RESULTS}/{{dataset}}/figures/level_curves.pdf",
+        pdf=layout.figure_file(SUPERVISED_DIR, "level_curves.pdf"),
     log:
         f"{RESULTS}/logs/{{dataset}}/level_curves.log",
     benchmark:
@@ -113,7 +113,7 @@ rule summary:
         metrics=lambda w: metrics_files(w.dataset),
     output:
         report(
-            f"{RESULTS}/{{dataset}}/tables/summary.json",
+            layout.table_file(SUPERVISED_DIR, "summary.json"),
             caption="../report/summary.rst",
             category="{dataset}",
             subcategory="Tables",
@@ -165,33 +165,33 @@ rule stats:
         metrics=lambda w: metrics_files(w.dataset),
     output:
         comparisons_csv=report(
-            f"{RESULTS}/{{dataset}}/tables/comparisons.csv",
+            layout.table_file(SUPERVISED_DIR, "comparisons.csv"),
             caption="../report/comparisons.rst",
             category="{dataset}",
             subcategory="Statistics",
         ),
-        comparisons_md=f"{RESULTS}/{{dataset}}/tables/comparisons.md",
+        comparisons_md=layout.table_file(SUPERVISED_DIR, "comparisons.md"),
         claims_csv=report(
-            f"{RESULTS}/{{dataset}}/tables/claims.csv",
+            layout.table_file(SUPERVISED_DIR, "claims.csv"),
             caption="../report/claims.rst",
             category="{dataset}",
             subcategory="Statistics",
         ),
-        claims_md=f"{RESULTS}/{{dataset}}/tables/claims.md",
+        claims_md=layout.table_file(SUPERVISED_DIR, "claims.md"),
         decomposition_csv=report(
-            f"{RESULTS}/{{dataset}}/tables/decomposition.csv",
+            layout.table_file(SUPERVISED_DIR, "decomposition.csv"),
             caption="../report/decomposition.rst",
             category="{dataset}",
             subcategory="Statistics",
         ),
-        decomposition_md=f"{RESULTS}/{{dataset}}/tables/decomposition.md",
+        decomposition_md=layout.table_file(SUPERVISED_DIR, "decomposition.md"),
         aubc_png=report(
-            f"{RESULTS}/{{dataset}}/figures/aubc.png",
+            layout.figure_file(SUPERVISED_DIR, "aubc.png"),
             caption="../report/aubc.rst",
             category="{dataset}",
             subcategory="Statistics",
         ),
-        aubc_pdf=f"{RESULTS}/{{dataset}}/figures/aubc.pdf",
+        aubc_pdf=layout.figure_file(SUPERVISED_DIR, "aubc.pdf"),
     log:
         f"{RESULTS}/logs/{{dataset}}/stats.log",
     benchmark:

@@ -11,7 +11,7 @@ localrules:
 
 rule robustness_grid:
     input:
-        f"{RESULTS}/{{dataset}}/data/observed.npz",
+        OBSERVED_FILE,
     output:
         f"{RESULTS}/{{dataset}}/robustness/grid/shard{{shard}}.npz",
     log:
@@ -35,7 +35,7 @@ rule robustness_grid:
 
 rule robustness_eval:
     input:
-        data=f"{RESULTS}/{{dataset}}/data/observed.npz",
+        data=OBSERVED_FILE,
         grid=robustness_shards,
         models=final_models,
     output:
@@ -70,24 +70,24 @@ rule robustness_eval:
 
 rule robustness_report:
     input:
-        data=f"{RESULTS}/{{dataset}}/data/observed.npz",
+        data=OBSERVED_FILE,
         evals=robustness_evals,
     output:
         table=report(
-            f"{RESULTS}/{{dataset}}/tables/robustness.csv",
+            layout.table_file(SUPERVISED_DIR, "robustness.csv"),
             caption="../report/robustness_table.rst",
             category="{dataset}",
             subcategory="Robustness",
         ),
-        diff=f"{RESULTS}/{{dataset}}/tables/robustness_diff.csv",
+        diff=layout.table_file(SUPERVISED_DIR, "robustness_diff.csv"),
         heatmaps=report(
-            f"{RESULTS}/{{dataset}}/figures/robustness.png",
+            layout.figure_file(SUPERVISED_DIR, "robustness.png"),
             caption="../report/robustness.rst",
             category="{dataset}",
             subcategory="Robustness",
         ),
         diff_map=report(
-            f"{RESULTS}/{{dataset}}/figures/robustness_diff.png",
+            layout.figure_file(SUPERVISED_DIR, "robustness_diff.png"),
             caption="../report/robustness_diff.rst",
             category="{dataset}",
             subcategory="Robustness",

@@ -37,7 +37,7 @@ def card_inputs(wildcards):
         "model": round_file(wildcards, r, "model.pt"),
         "metrics": round_file(wildcards, r, "metrics.json"),
         "labeled": labeled_in_round(wildcards, r),
-        "data": f"{RESULTS}/{wildcards.dataset}/data/dataset.npz",
+        "data": layout.data_file(RESULTS, wildcards.dataset),
     }
     grid = robustness_grid(wildcards.dataset)
     family = budget_families(config, wildcards.dataset, METHODS)["paper"]

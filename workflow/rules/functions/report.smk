@@ -22,8 +22,11 @@ def budget_metrics_files(dataset):
 def dataset_outputs(dataset):
     """What `all` asks of a dataset: its pictures, the supervised framework's outputs
     (spl_al.experiment.outputs), robustness maps, model cards and exports."""
-    figures = f"{RESULTS}/{dataset}/figures"
-    out = [f"{figures}/contact_sheet.png", f"{figures}/variants_sheet.png"]
+    folder = SUPERVISED.folder(RESULTS, dataset)
+    out = [
+        layout.figure_file(folder, "contact_sheet.png"),
+        layout.figure_file(folder, "variants_sheet.png"),
+    ]
     out += framework_outputs(config, dataset, SUPERVISED, results=RESULTS)
     out += robustness_outputs(dataset)
     out += card_outputs(dataset) + export_outputs(dataset)

@@ -50,9 +50,10 @@ def final_models(wildcards):
 def robustness_outputs(dataset):
     if robustness_grid(dataset) is None:
         return []
+    folder = SUPERVISED.folder(RESULTS, dataset)
     return [
-        f"{RESULTS}/{dataset}/tables/robustness.csv",
-        f"{RESULTS}/{dataset}/tables/robustness_diff.csv",
-        f"{RESULTS}/{dataset}/figures/robustness.png",
-        f"{RESULTS}/{dataset}/figures/robustness_diff.png",
+        layout.table_file(folder, "robustness.csv"),
+        layout.table_file(folder, "robustness_diff.csv"),
+        layout.figure_file(folder, "robustness.png"),
+        layout.figure_file(folder, "robustness_diff.png"),
     ]
