@@ -1,4 +1,5 @@
 # What the rule files share; each file's own functions are in workflow/rules/functions/
+import functools
 import os
 import sys
 from pathlib import Path
@@ -157,8 +158,10 @@ def dataset_params(dataset):
     return {key: value for key, value in entry.items() if key not in NOT_DATA}
 
 
+@functools.cache
 def runs(dataset):
-    """(method, seed) -> rounds for one dataset."""
+    """(method, seed) -> rounds for one dataset (once per dataset: every job's input
+    functions ask; read it, do not change it)."""
     return dataset_runs(config, dataset)
 
 

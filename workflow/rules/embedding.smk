@@ -69,9 +69,7 @@ rule probe_runs:
             al=lambda w: config["datasets"][w.dataset]["al"],
             probe=lambda w: embedding_entry(w.dataset).get("probe") or {},
             seeds=lambda w: probe_run_params(w)["seeds"],
-            encoders=lambda w: [
-                run_encoders(w)[s] for s in probe_run_params(w)["seeds"]
-            ],
+            encoders=lambda w: list(run_encoders(w).values()),
             rounds=lambda w: probe_run_params(w)["rounds"],
         ),
         files=job_files,

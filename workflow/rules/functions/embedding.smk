@@ -24,6 +24,13 @@ def encoder_file(dataset, eseed, name):
     return f"{EMBEDDING_FRAMEWORK.folder(RESULTS, dataset)}/encoders/seed{eseed}/{name}"
 
 
+@functools.cache
+def embedding_runs(dataset):
+    """(method, seed) -> rounds of the dataset's embedding framework (once per dataset:
+    each probe_runs job's params ask; read it, do not change it)."""
+    return dataset_runs(config, dataset, EMBEDDING_FRAMEWORK)
+
+
 def run_encoders(wildcards):
     """Run seed -> encoder seed of one method's runs."""
     entry = config["datasets"][wildcards.dataset]
@@ -43,7 +50,7 @@ def probe_runs_encoders(wildcards):
 
 def probe_runs_files(dataset, methods=None):
     """The runs file of every method the dataset's embedding experiments run."""
-    names = {m for m, _seed in dataset_runs(config, dataset, EMBEDDING_FRAMEWORK)}
+    names = {m for m, _seed in embedding_runs(dataset)}
     return [
         f"{EMBEDDING_FRAMEWORK.folder(RESULTS, dataset)}/runs/{m}.json"
         for m in sorted(names)
@@ -53,7 +60,7 @@ def probe_runs_files(dataset, methods=None):
 
 def probe_run_params(wildcards):
     """Seeds and rounds of one method's runs (the longest any experiment needs)."""
-    runs = dataset_runs(config, wildcards.dataset, EMBEDDING_FRAMEWORK)
+    runs = embedding_runs(wildcards.dataset)
     seeds = sorted(s for m, s in runs if m == wildcards.method)
     rounds = max(r for (m, _s), r in runs.items() if m == wildcards.method)
     return {"seeds": seeds, "rounds": rounds}
