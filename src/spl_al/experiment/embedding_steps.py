@@ -249,7 +249,7 @@ def _record(facts: ProbeData, model, method: str, *, which, n_labeled, n_images)
         synthetic_standin=facts.standin,
         framework=FRAMEWORK,
         train_images=int(n_images),
-        precision="fp32",
+        precision=EMBEDDING.measured_at,  # a linear classifier fitted and measured in fp32
         encoder=int(facts.encoder[0]),
         encoder_health=facts.encoder[1],
     )
