@@ -43,8 +43,14 @@ def _read(results: Path, dataset: str):
                 "embedding framework has run (its stats job writes it)."
             )
     claims = pd.read_csv(tables / "claims.csv")
-    cmp = pd.read_csv(tables / "comparisons.csv", keep_default_na=False, na_values=[""])
-    cmp["parameter"] = cmp["parameter"].fillna("").astype(str)
+    # "parameter" is text, empty for most rows: read as such, not as an all-NaN float
+    cmp = pd.read_csv(
+        tables / "comparisons.csv",
+        keep_default_na=False,
+        na_values=[""],
+        dtype={"parameter": str},
+    )
+    cmp["parameter"] = cmp["parameter"].fillna("")
     return claims, cmp
 
 
