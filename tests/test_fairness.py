@@ -11,6 +11,7 @@ import pytest
 import yaml
 
 from spl_al.experiment.plan import budget_families, dataset_runs, experiments_of, method_specs
+from spl_al.frameworks import get_feature_space
 from spl_al.report import records_frame
 from spl_al.report.claims import claims, render_claims_markdown
 from spl_al.report.decomposition import METHODS, PARTS, decomposition
@@ -246,8 +247,13 @@ def test_duis_against_the_strongest_low_budget_baseline_under_matched_training()
         "paper": ["random", "duis"],
         "matched": ["syn_probcover", "syn_typiclust", "syn_diversity", "duis"],
     }
+    selection = {
+        "syn_probcover": {"strategy": "probcover", "features": "model"},
+        "syn_typiclust": {"strategy": "typiclust", "features": "model"},
+        "syn_diversity": {"strategy": "diversity", "features": "model"},
+    }
     cmp = comparisons(df, {"budget": budget}, {})
-    out = claims(cmp, families).set_index("claim_id")
+    out = claims(cmp, families, selection=selection).set_index("claim_id")
     row = out.loc["duis_over_low_budget_matched"]
     assert row["n_comparisons"] == 1 and row["source"] == "extension"
     # syn_typiclust (offset 0.05) is stronger than syn_probcover (0.04)
@@ -259,9 +265,22 @@ def test_duis_against_the_strongest_low_budget_baseline_under_matched_training()
     assert len(pair) == 1
     expected = "supported" if pair["resolved"].iloc[0] else "inconclusive"
     assert row["verdict"] == expected
+    assert f"(selecting on {get_feature_space('model').words})" in row["claim"]
+    # the selection says what a method is and selects on, whatever its name
+    on_embedding = {
+        **selection,
+        "syn_typiclust": {"strategy": "typiclust", "features": "embedding"},
+    }
+    named = claims(cmp, families, selection=on_embedding).set_index("claim_id")
+    embedding_words = get_feature_space("embedding").words
+    assert f"(selecting on {embedding_words})" in named.loc["duis_over_low_budget_matched", "claim"]
+    not_low = {**selection, "syn_typiclust": {"strategy": "margin", "features": "model"}}
+    swapped = claims(cmp, families, selection=not_low).set_index("claim_id")
+    assert "Syn+ProbCover" in swapped.loc["duis_over_low_budget_matched", "claim"]
     # without a low-budget twin in the matched family, no such claim
     plain = claims(
         comparisons(records(), {"budget": {**budget, "methods": list(OFFSET)}}, {}),
         {"paper": ["random", "margin", "duis"], "matched": ["syn_random", "duis"]},
+        selection={"syn_random": {"strategy": "random", "features": "model"}},
     )
     assert "duis_over_low_budget_matched" not in set(plain["claim_id"])

@@ -265,18 +265,31 @@ def budget_families(
 def experiments_of(config: dict, dataset: str, specs=None, framework=DEFAULT) -> dict:
     """A dataset's experiments in ``framework`` as run: the budget experiment's
     ``methods`` hold the matched twins too (observed-only methods first, then the
-    variant-trained ones, DUIS last) and ``families`` names both families
-    (``budget_families``)."""
+    variant-trained ones, DUIS last), ``families`` names both families
+    (``budget_families``) and ``selection`` says how each method selects:
+    {method: {"strategy": ..., "features": ...}} (a claim names what a baseline
+    selected on from it, never from the method's name)."""
     experiments = framework_experiments(config["datasets"][dataset], framework)
     if "budget" not in experiments:
         return experiments
+    specs = specs if specs is not None else method_specs(config)
     families = budget_families(config, dataset, specs, framework)
     methods = [m for m in families["paper"] if m != FULL_METHOD]
     methods += [m for m in families["matched"] if m != FULL_METHOD]
     methods += [m for m in experiments["budget"]["methods"] if m not in methods]
     if FULL_METHOD in methods:
         methods = [m for m in methods if m != FULL_METHOD] + [FULL_METHOD]
-    experiments["budget"] = {**experiments["budget"], "methods": methods, "families": families}
+    selection = {
+        m: {"strategy": specs[m].strategy, "features": specs[m].features}
+        for m in methods
+        if m in specs
+    }
+    experiments["budget"] = {
+        **experiments["budget"],
+        "methods": methods,
+        "families": families,
+        "selection": selection,
+    }
     return experiments
 
 

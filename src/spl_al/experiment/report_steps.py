@@ -148,6 +148,7 @@ def make_stats(
     verdicts = claims(
         stored,
         budget_exp.get("families"),
+        selection=budget_exp.get("selection"),
         levels_in_paper=in_paper,
         framework=report.framework_of(df),
         notes=claim_notes,

@@ -62,8 +62,6 @@ import pandas as pd
 from spl_al.cold_start import split_start_name
 from spl_al.frameworks import (
     DEFAULT,
-    EMBEDDING_FEATURES,
-    MODEL_FEATURES,
     framework_names,
     get_feature_space,
     get_framework,
@@ -336,27 +334,23 @@ LOW_BUDGET = ("typiclust", "probcover", "maxherding")
 """The low-budget baselines (scikit-activeml's, ``spl_al.strategies.skactiveml_adapter``)."""
 
 
-SSL_SUFFIX = "_ssl"
-"""A method named X_ssl selects on the self-supervised embedding (``features: embedding``)."""
-
-
-def feature_space(method: str, framework: str) -> str:
-    """What a low-budget baseline selected on, in words: the framework's own feature
-    space, else the self-supervised embedding for an X_ssl method, else the model's."""
+def feature_space(features: str, framework: str) -> str:
+    """What a feature-only baseline selected on, in words: the framework's own feature
+    space where it has one (every method of the embedding framework selects on the
+    embedding), else the method's ``features``."""
     space = get_framework(framework).features
-    if space is None:
-        space = (EMBEDDING_FEATURES if method.endswith(SSL_SUFFIX) else MODEL_FEATURES).name
-    return get_feature_space(space).words
+    return get_feature_space(space if space is not None else features).words
 
 
-def _low_budget_claim(cmp: pd.DataFrame, families, framework: str) -> dict | None:
+def _low_budget_claim(cmp: pd.DataFrame, families, selection, framework: str) -> dict | None:
     """DUIS's AUBC over the query rounds beats the strongest low-budget baseline trained
-    on the variants (``syn_X`` of ``LOW_BUDGET``, or ``syn_X_ssl``, the one with the
-    highest mean AUBC): acquisition against acquisition at equal training; the claim
-    names the feature space the baseline selected on. None without one in the run."""
+    on the variants (a member of the matched family whose ``selection`` strategy is one
+    of ``LOW_BUDGET``, the one with the highest mean AUBC): acquisition against
+    acquisition at equal training; the claim names the feature space the baseline
+    selected on. None without one in the run."""
     matched = (families or {}).get("matched") or []
-    low = {f"syn_{x}{s}" for x in LOW_BUDGET for s in ("", SSL_SUFFIX)}
-    twins = [m for m in matched if m in low]
+    selection = selection or {}
+    twins = [m for m in matched if selection.get(m, {}).get("strategy") in LOW_BUDGET]
     area = cmp[(cmp["experiment"] == "budget") & (cmp["point"] == "AUBC")]
     rows = _with_full(area, twins) if twins else area.iloc[0:0]
     if rows.empty:
@@ -364,7 +358,7 @@ def _low_budget_claim(cmp: pd.DataFrame, families, framework: str) -> dict | Non
     best = rows.loc[[rows["mean_b"].astype(float).idxmax()]]
     span = f" ({best['span'].iloc[0]})" if "span" in best and pd.notna(best["span"].iloc[0]) else ""
     name = str(best["method_b"].iloc[0])
-    space = feature_space(name, framework)
+    space = feature_space(selection[name]["features"], framework)
     return _all_beat(
         "duis_over_low_budget_matched",
         f"DUIS has a larger AUBC over query rounds{span} than the strongest low-budget "
@@ -560,6 +554,7 @@ def claims(
     cmp: pd.DataFrame,
     families: dict | None = None,
     *,
+    selection: dict | None = None,
     levels_in_paper: bool = True,
     framework: str = DEFAULT.name,
     notes: dict | None = None,
@@ -569,12 +564,15 @@ def claims(
 
     ``families``: {"paper": [...], "matched": [...]}, the budget experiment's two
     families (``spl_al.experiment.plan.budget_families``); None: one family, every
-    budget method. ``levels_in_paper``: whether the paper reports a per-MSPPP-level
-    split for this protocol (it does for its real and segmentation data, not for its
-    synthetic classification). ``notes``: claim id -> a sentence appended to that
-    claim's reason (``encoder_claim_notes``). Returns one row per claim whose
-    comparisons exist, columns ``COLUMNS``; ``source`` is ``paper`` or ``extension``
-    (``SOURCES``); ``unit`` what ``seeds_needed`` counts: seeds, or encoders.
+    budget method. ``selection``: {method: {"strategy", "features"}} (the budget
+    experiment's, ``experiments_of``): which methods are low-budget baselines and what
+    they select on; None: no low-budget claim. ``levels_in_paper``: whether the paper
+    reports a per-MSPPP-level split for this protocol (it does for its real and
+    segmentation data, not for its synthetic classification). ``notes``: claim id -> a
+    sentence appended to that claim's reason (``encoder_claim_notes``). Returns one row
+    per claim whose comparisons exist, columns ``COLUMNS``; ``source`` is ``paper`` or
+    ``extension`` (``SOURCES``); ``unit`` what ``seeds_needed`` counts: seeds, or
+    encoders.
     """
     if cmp.empty:
         return pd.DataFrame(columns=list(COLUMNS))
@@ -582,7 +580,7 @@ def claims(
     metric = METRIC_WORDS.get(first["metric"], first["metric"].lower())
     rows = [
         *_best_method_claims(cmp, metric, families or {}),
-        _low_budget_claim(cmp, families, framework),
+        _low_budget_claim(cmp, families, selection, framework),
         _dropquery_claim(cmp),
         *_decomposition_claims(cmp),
         *_first_batch_claims(cmp),
