@@ -36,6 +36,7 @@ import numpy as np
 
 from spl_al.bench.timing import markdown_table
 from spl_al.data import Dataset, load_folder
+from spl_al.data.dataset import HEADLINE_METRICS
 from spl_al.data.digits import write_digits_folder
 from spl_al.data.validation import VALIDATION_FRACTION, VALIDATION_SEED, validation_split
 from spl_al.data.variants import make_variants
@@ -172,7 +173,7 @@ def learner_score(
     metrics = evaluate(
         model, dataset.depth_m[val], dataset.valid[val], dataset.labels[val], compute=compute
     )
-    return float(metrics["accuracy" if dataset.task == "classification" else "miou"])
+    return float(metrics[HEADLINE_METRICS[dataset.task]])
 
 
 class _Null:

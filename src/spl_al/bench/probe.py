@@ -40,9 +40,11 @@ from spl_al.bench.learnability import (
 )
 from spl_al.bench.timing import markdown_table
 from spl_al.data import Dataset
+from spl_al.data.dataset import HEADLINE_METRICS
 from spl_al.frameworks import EMBEDDING
 from spl_al.linear_probe import LinearProbe
 from spl_al.pool import initial_labeled_set
+from spl_al.report.display import METRIC_WORDS
 
 SEEDS = (1, 2, 3)
 C_VALUES = (0.1, 1.0, 10.0)
@@ -281,7 +283,7 @@ def main(argv: list[str] | None = None) -> int:
                     data, entry, seeds=args.seeds, c_values=args.c, cnn=not args.no_cnn
                 )
             print()
-            metric = "mIoU" if data.task == "segmentation" else "accuracy"
+            metric = METRIC_WORDS[HEADLINE_METRICS[data.task]]
             print(render(name, rows, len(data.train_idx), metric))
             print(f"\n({time.perf_counter() - started:.0f} s)\n")
     return 0

@@ -29,6 +29,7 @@ import numpy as np
 
 from spl_al.bench.learnability import default_datasets, recipe_overrides, tuning_split
 from spl_al.bench.timing import markdown_table
+from spl_al.data.dataset import HEADLINE_METRICS
 from spl_al.training.compute import Compute
 
 SEEDS = (1, 2, 3)
@@ -76,7 +77,7 @@ def sequence_scores(
             log=io.StringIO(),
         )
         metrics = evaluate(model, data.depth_m[val_idx], data.valid[val_idx], data.labels[val_idx])
-        scores.append(100 * float(metrics["accuracy" if data.task == "classification" else "miou"]))
+        scores.append(100 * float(metrics[HEADLINE_METRICS[data.task]]))
     return scores, time.process_time() - started
 
 

@@ -18,6 +18,7 @@ import sys
 from pathlib import Path
 
 from spl_al.data import Dataset, make_classification_dataset, make_segmentation_dataset
+from spl_al.data.dataset import TASKS
 from spl_al.data.external import load_folder
 from spl_al.data.pictures import contact_sheet, variants_sheet
 from spl_al.data.variants import attach_variants, generate_variants
@@ -97,7 +98,7 @@ def _parser() -> argparse.ArgumentParser:
 
 def run(args: argparse.Namespace) -> str:
     """Execute one command; returns what to print."""
-    if args.command in ("classification", "segmentation"):
+    if args.command in TASKS:
         kw = {
             "image_shape": args.image_shape,
             "seed": args.seed,

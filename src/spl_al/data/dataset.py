@@ -51,6 +51,9 @@ FORMAT = "spl-al-dataset"
 VERSION = 1
 TASKS = ("classification", "segmentation")
 LEVELS = ("high", "medium", "low")
+HEADLINE_METRICS = {"classification": "accuracy", "segmentation": "miou"}
+"""Per task, the metric the experiments report: its key in ``spl_al.training.evaluate``'s
+result."""
 SPLITS = ("train", "test")
 
 _DEPTH_FIELDS = {

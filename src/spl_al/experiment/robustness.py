@@ -33,10 +33,12 @@ import pandas as pd
 
 from spl_al.atomic import read_json, write_json
 from spl_al.data import SCENE_FIELDS, Dataset, storage
+from spl_al.data.dataset import HEADLINE_METRICS
 from spl_al.data.observe import image_through_photons, observation_of, observe
 from spl_al.data.seeds import STREAM_VARIANT, sample_rng
 from spl_al.photon import Condition, PhotonScene
 from spl_al.plotting import fit_texts, new_figure
+from spl_al.report.display import FULL_METHOD
 from spl_al.report.stat_figures import difference_figure, heatmap_figure
 from spl_al.report.stats import paired_test
 from spl_al.report.writers import atomic_write
@@ -213,7 +215,7 @@ def evaluate_grid(
     depth = grid["depth"].reshape(c * n, *grid["depth"].shape[2:])
     targets = np.tile(dataset.labels[grid["sample_idx"]], (c,) + (1,) * (dataset.labels.ndim - 1))
     cell = np.repeat(np.arange(c), n).astype(str)
-    key = "accuracy" if dataset.task == "classification" else "miou"
+    key = HEADLINE_METRICS[dataset.task]
     records = []
     for seed, model_path in zip(seeds, model_paths, strict=True):
         started = time.perf_counter()
@@ -314,7 +316,7 @@ def robustness_table(frame: pd.DataFrame, trained: dict, scale: float = 100) -> 
 
 
 def difference_table(
-    frame: pd.DataFrame, trained: dict, full: str = "duis", scale: float = 100
+    frame: pd.DataFrame, trained: dict, full: str = FULL_METHOD, scale: float = 100
 ) -> pd.DataFrame:
     """DUIS minus the best baseline per cell, paired over seeds.
 

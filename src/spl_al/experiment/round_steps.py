@@ -15,6 +15,7 @@ import numpy as np
 
 from spl_al.atomic import atomic_write, read_json, write_json
 from spl_al.data import SCENE_FIELDS, Dataset
+from spl_al.data.dataset import HEADLINE_METRICS
 from spl_al.data.label_files import labels_for
 from spl_al.experiment.fits import dataset_facts, fit_and_evaluate, fit_facts, fit_of_record
 from spl_al.experiment.plan import MethodSpec
@@ -143,7 +144,7 @@ def _metrics_record(facts, setup, which: RoundId, n_labeled, metrics, extra) -> 
     """The per-round record ``spl_al.report`` aggregates (``report.round_record``;
     ``facts``: ``dataset_facts``; ``extra``: training images, steps and images seen,
     timing and precision; the test metrics in full go last, as ``details``)."""
-    key = "accuracy" if facts["task"] == "classification" else "miou"
+    key = HEADLINE_METRICS[facts["task"]]
     ratio_of = setup.get("ratio_of", "train")
     levels = metrics.get("per_level", {})
     return round_record(

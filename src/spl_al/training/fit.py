@@ -15,6 +15,7 @@ import torch
 import torch.nn.functional as F
 from torch import nn
 
+from spl_al.data.dataset import TASKS
 from spl_al.label_codes import IGNORE_INDEX
 from spl_al.models import model_input, reset_parameters, seed_own_draws, training_outputs
 from spl_al.training.compute import LOCAL, Compute
@@ -379,7 +380,7 @@ def _run_schedule(schedule, augment, step_fn, data, progress, log_every: int) ->
 def _check_inputs(model, depth_m: np.ndarray, targets, cfg: TrainConfig, groups) -> np.ndarray:
     """Refuse a model, images, targets or groups ``train`` cannot use; the int64 targets."""
     task = getattr(model, "task", None)
-    if task not in ("classification", "segmentation"):
+    if task not in TASKS:
         raise ValueError(
             "model must come from spl_al.models.build_model (it has no task attribute)."
         )

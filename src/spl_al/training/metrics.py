@@ -7,12 +7,11 @@ from collections.abc import Sequence
 import numpy as np
 from torch import nn
 
+from spl_al.data.dataset import LEVELS
 from spl_al.label_codes import IGNORE_INDEX
 from spl_al.training.compute import Compute
 from spl_al.training.fit import check_targets
 from spl_al.training.forward import iter_forward
-
-LEVEL_ORDER = ("high", "medium", "low")
 
 
 def confusion_per_image(pred: np.ndarray, target: np.ndarray, n_classes: int) -> np.ndarray:
@@ -86,7 +85,7 @@ def summarise(
             raise ValueError(
                 f"levels must have one entry per image ({n}), got shape {levels.shape}."
             )
-        names = [lv for lv in LEVEL_ORDER if lv in levels] + sorted(set(levels) - set(LEVEL_ORDER))
+        names = [lv for lv in LEVELS if lv in levels] + sorted(set(levels) - set(LEVELS))
         out["per_level"] = {}
         for lv in names:
             sel = levels == lv
