@@ -1,6 +1,8 @@
-"""Every random stream of an experiment, derived in one place.
+"""The random streams of an experiment's steps, derived in one place.
 
-A stream is named by its **purpose** and keyed by what it belongs to:
+A stream is named by its **purpose** and keyed by what it belongs to (purposes in
+lower case; ``round0`` is ``round0_rng``, ``grid`` ``grid_seed``, ``sample``
+``sample_rng``):
 
 | purpose | keyed by | draws |
 |---|---|---|
@@ -17,6 +19,12 @@ their acquisition alone (common random numbers); the two frameworks share the
 streams too, so they differ in the model alone. A dataset's runs are its own and no
 statistic pairs two datasets' draws; its data are keyed by its own synthesis seed.
 
+Below the step, the training code splits the integer it is handed: ``training.fit``
+its minibatch order, augmentation mixing and weight initialisation (from the ``train``
+seed), ``training.contrastive`` an encoder's weights and batches (from the encoder's
+own seed, ``EncoderConfig.seed``: encoders are a random effect of their own, drawn
+apart from the run seeds). Those splits never leave the function that makes them.
+
 A new step draws from a new purpose added here (a new stream number), never from an
 existing one, so no earlier draw moves. The numbers below are the ones every earlier
 run used: results stay bit-identical.
@@ -26,7 +34,7 @@ from __future__ import annotations
 
 import numpy as np
 
-ROUND0, TRAIN, QUERY = "round0", "train", "query"
+TRAIN, QUERY = "train", "query"
 
 _ROUND_STREAMS = {TRAIN: 1, QUERY: 2}
 """np.random.SeedSequence([seed, round, stream]) of the per-round purposes."""

@@ -9,7 +9,7 @@ the default learner and the folder path work on data nothing was tuned on. The 1
 
 with the board a plane at ``distance_m`` tilted by a few degrees, the digit upsampled
 bilinearly to ``digit_px`` pixels and placed at a random offset, then seen through
-``spl_al.data.observe_image`` under the fuller sensor model (``ObservationModel``) at a
+``spl_al.data.observe.observe_image`` under the fuller sensor model (``ObservationModel``) at a
 random MSPPP level and SBR, like every synthetic set.
 """
 
@@ -23,8 +23,6 @@ from spl_al.atomic import atomic_write
 from spl_al.data.observe import DEFAULT_LEVELS, DEFAULT_SBR, observe_image
 from spl_al.data.seeds import STREAM_OBSERVE, STREAM_SCENE, sample_rng
 from spl_al.photon import Condition, ObservationModel, SensorParams
-
-DIGIT_CLASSES = tuple(f"digit{k}" for k in range(10))
 
 
 def _upsample(img: np.ndarray, size: int) -> np.ndarray:

@@ -34,7 +34,6 @@ PLACEHOLDERS = {
     "levels": "<level>",
 }
 _UNIT = re.compile(r"\s*\[([^\[\]]+)\]\s*$")
-_MISSING = object()
 
 
 def split_unit(description: str) -> tuple[str, str]:

@@ -694,15 +694,6 @@ def encoder_claim_notes(objective: str) -> dict[str, str]:
     return dict.fromkeys(INCONSISTENCY_CLAIMS, SIV_ENCODER_NOTE) if objective == "siv" else {}
 
 
-def claims_rule_text() -> str:
-    """The verdict rules in one paragraph (the claims table quotes them)."""
-    notes = rule_notes()
-    return (
-        f"{notes['5%']} {notes['small-n']} Inconclusive: otherwise. Resolved: {rule_text()}. "
-        f"'Not worse than' needs every 95% interval above -{MARGIN_PP:g} pp."
-    )
-
-
 def render_claims_markdown(frame: pd.DataFrame, dataset: str | None = None) -> str:
     """Markdown of a claims frame, the paper's claims first, then this project's
     extensions: claim, verdict marked with its rule, reason, seeds needed, evidence; a

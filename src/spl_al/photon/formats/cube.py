@@ -117,11 +117,6 @@ def names_a_bin_width(path: Path) -> bool:
     return any(name in names for name in BIN_WIDTH_NAMES)
 
 
-def read_cube_file(path: Path, **options) -> Capture:
-    """Capture of the count cube in a ``.npy``, ``.npz`` or HDF5 file."""
-    return read_cube(path, _read_arrays(path), **options)
-
-
 def read_cube(
     path: Path,
     arrays: dict,
