@@ -9,6 +9,7 @@ import pytest
 import torch
 
 import spl_al.photon.sspi as sspi
+from spl_al.config import SSPI_WEIGHTS_ENV
 from spl_al.photon import (
     Condition,
     PhotonScene,
@@ -18,7 +19,7 @@ from spl_al.photon import (
     simulate_photons,
 )
 from spl_al.photon.sspi.network import expected_shapes
-from spl_al.photon.sspi.weights import ENV_VAR, load_state, weights_folder
+from spl_al.photon.sspi.weights import load_state, weights_folder
 
 
 def fake_state(seed=0) -> dict:
@@ -53,7 +54,7 @@ def test_expected_state_has_the_published_206_entries():
 
 
 def test_no_weights_is_one_error_saying_where_to_get_them(monkeypatch, scene):
-    monkeypatch.delenv(ENV_VAR, raising=False)
+    monkeypatch.delenv(SSPI_WEIGHTS_ENV, raising=False)
     sensor = SensorParams.tabletop()
     ev = simulate_photons(PhotonScene(scene), Condition(2.0, 1.0, sensor), np.random.default_rng(0))
     with pytest.raises(ValueError, match=r"y2w-oc/Dynamic-SSP-3D-Imaging.*Test/preTrain"):
@@ -67,7 +68,7 @@ def test_folder_without_the_files_names_the_missing_file(tmp_path):
 
 
 def test_environment_variable_is_the_fallback(monkeypatch, fake_weights):
-    monkeypatch.setenv(ENV_VAR, str(fake_weights))
+    monkeypatch.setenv(SSPI_WEIGHTS_ENV, str(fake_weights))
     assert weights_folder(None) == fake_weights
 
 
@@ -149,7 +150,7 @@ def test_an_sspi_variant_shard_times_one_frame_then_writes_its_variants(
     from spl_al.data.variants import VariantShard
     from spl_al.experiment.data_steps import make_variant_shard
 
-    monkeypatch.setenv(ENV_VAR, "")  # the step exports the folder; restored after the test
+    monkeypatch.setenv(SSPI_WEIGHTS_ENV, "")  # the step exports the folder; restored after the test
     Dataset(
         "classification",
         ["near", "far"],

@@ -21,6 +21,7 @@ from pathlib import Path
 import numpy as np
 
 from spl_al.bench.timing import markdown_table, median_seconds
+from spl_al.config import REAL_CAPTURES_ENV
 from spl_al.photon import Condition, PhotonScene, SensorParams, simulate_photons
 from spl_al.photon.calibration import estimate_conditions, estimate_pulse_sigma
 from spl_al.photon.formats import writers
@@ -88,7 +89,7 @@ def main(argv: list[str]) -> int:
     args = parser.parse_args(argv)
     with tempfile.TemporaryDirectory() as tmp:
         rows = [_row(n, p, args.repeats) for n, p in _write_all(Path(tmp)).items()]
-    real = os.environ.get("SPL_AL_REAL_CAPTURES")
+    real = os.environ.get(REAL_CAPTURES_ENV)
     if real:
         for path in sorted(Path(real).glob("*.mat")):
             rows.append(_row(f"ugv45m {path.stem}", path, args.repeats))

@@ -56,12 +56,15 @@ def _read(results: Path, dataset: str):
 
 def compare(results_a: Path, results_b: Path, dataset: str) -> dict:
     """The agreement of two draws on one dataset (module docstring), as a dict."""
+    # claims (and pandas) on demand (importing this module does not load them)
+    from spl_al.report.claims import CONTRADICTED, SUPPORTED
+
     claims_a, cmp_a = _read(results_a, dataset)
     claims_b, cmp_b = _read(results_b, dataset)
     verdicts = claims_a.merge(claims_b, on="claim_id", suffixes=("_a", "_b"))
+    a, b = verdicts["verdict_a"], verdicts["verdict_b"]
     opposite_claims = verdicts[
-        ((verdicts["verdict_a"] == "supported") & (verdicts["verdict_b"] == "contradicted"))
-        | ((verdicts["verdict_a"] == "contradicted") & (verdicts["verdict_b"] == "supported"))
+        ((a == SUPPORTED) & (b == CONTRADICTED)) | ((a == CONTRADICTED) & (b == SUPPORTED))
     ]
     both = cmp_a.merge(cmp_b, on=KEY, suffixes=("_a", "_b"))
     ra, rb = both["resolved_a"].astype(bool), both["resolved_b"].astype(bool)

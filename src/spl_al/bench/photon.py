@@ -21,6 +21,7 @@ import numpy as np
 
 from spl_al.bench.sspi import sspi_frame_cost
 from spl_al.bench.timing import markdown_table, median_seconds
+from spl_al.config import SSPI_WEIGHTS_ENV
 from spl_al.photon import Condition, PhotonScene, SensorParams, reconstruct, simulate_photons
 from spl_al.photon.pictures import demo_scene
 from spl_al.photon.reference import simulate_photons_loop
@@ -32,7 +33,7 @@ def main(argv: list[str]) -> int:
     """Time simulation and every reconstruction method; print the table; the exit code."""
     parser = argparse.ArgumentParser(prog="python -m spl_al.bench photon")
     parser.add_argument("--repeats", type=int, default=15)
-    parser.add_argument("--sspi-weights", default=os.environ.get("SPL_AL_SSPI_WEIGHTS"))
+    parser.add_argument("--sspi-weights", default=os.environ.get(SSPI_WEIGHTS_ENV))
     args = parser.parse_args(argv)
 
     sensor = SensorParams.tabletop()

@@ -29,6 +29,7 @@ from pathlib import Path
 import numpy as np
 
 from spl_al.bench.timing import markdown_table
+from spl_al.config import REAL_CAPTURES_ENV
 from spl_al.photon import (
     Condition,
     PhotonScene,
@@ -176,7 +177,7 @@ def main(argv: list[str]) -> int:
     """Compare SSPI with the ML reconstructions; print the tables; the exit code."""
     parser = argparse.ArgumentParser(prog="python -m spl_al.bench sspi")
     parser.add_argument("--weights", default=None, help="default $SPL_AL_SSPI_WEIGHTS")
-    parser.add_argument("--captures", default=os.environ.get("SPL_AL_REAL_CAPTURES"))
+    parser.add_argument("--captures", default=os.environ.get(REAL_CAPTURES_ENV))
     parser.add_argument("--msppp", type=float, nargs="+", default=list(MSPPP))
     parser.add_argument("--sbr", type=float, nargs="+", default=list(SBR))
     args = parser.parse_args(argv)

@@ -102,9 +102,10 @@ def _announce_sspi_shard(dataset, sensor, conditions, n_frames: int, sspi_weight
     # torch on demand (importing this module does not load it)
     import os
 
-    from spl_al.photon.sspi.weights import ENV_VAR, weights_folder
+    from spl_al.config import SSPI_WEIGHTS_ENV
+    from spl_al.photon.sspi.weights import weights_folder
 
-    os.environ[ENV_VAR] = str(weights_folder(sspi_weights).resolve())
+    os.environ[SSPI_WEIGHTS_ENV] = str(weights_folder(sspi_weights).resolve())
     if n_frames == 0:
         return
     # The condition with the median photon budget msppp (1 + 1 / sbr): a typical frame.

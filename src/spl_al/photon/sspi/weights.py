@@ -16,14 +16,14 @@ from pathlib import Path
 
 import torch
 
+from spl_al.config import SSPI_WEIGHTS_ENV
 from spl_al.photon.sspi.network import SSPI, expected_shapes
 
-ENV_VAR = "SPL_AL_SSPI_WEIGHTS"
 FILES = ("ssunet1.pth", "ssunet2.pth")  # denoiser, depth estimator
 SOURCE = (
     "download ssunet1.pth and ssunet2.pth from the authors' repository "
     "https://github.com/y2w-oc/Dynamic-SSP-3D-Imaging (folder Test/preTrain/) into one "
-    f"folder and pass it as weights=FOLDER, config key photon.sspi_weights or ${ENV_VAR}"
+    f"folder and pass it as weights=FOLDER, config key photon.sspi_weights or ${SSPI_WEIGHTS_ENV}"
 )
 
 
@@ -33,7 +33,7 @@ def weights_folder(weights=None) -> Path:
     ``weights`` (a folder) wins; otherwise ``$SPL_AL_SSPI_WEIGHTS``. Raises one
     ValueError saying where to get the weights when neither is set or a file is missing.
     """
-    chosen = weights if weights not in (None, "") else os.environ.get(ENV_VAR) or None
+    chosen = weights if weights not in (None, "") else os.environ.get(SSPI_WEIGHTS_ENV) or None
     if chosen is None:
         raise ValueError(f"SSPI needs its trained weights, and none were given: {SOURCE}.")
     folder = Path(chosen).expanduser()
