@@ -45,14 +45,15 @@ class FrameworkKind:
     ``experiments_at``: the keys, from a dataset's config entry, of the mapping that
     holds its experiments; ``block``: the entry's key that switches it on and holds
     its settings (None: always on, the entry itself); ``subfolder``: under
-    ``results/{dataset}/`` ("" for the dataset's folder itself); ``model`` and
-    ``short``: what a round fits, in a sentence and in a figure title's words (empty:
-    the configured network, said nowhere), from which ``note`` and ``claims_words``
-    are made; ``measured_at``: the precision every measurement is made at whatever the
-    run's (None: the run's own);
-    ``features``: the feature space every method selects on (None: each method's own
-    ``features``); ``unit``: what its statistics treat as independent (``seed``, or
-    ``encoder`` where seeds share an encoder)."""
+    ``results/{dataset}/`` ("" for the dataset's folder itself); ``model``: what a
+    round fits, in a sentence (empty: the configured network, said nowhere), from which
+    ``note`` and ``claims_words`` are made; ``short``: the same in a figure title's
+    words; ``measured_at``: the precision every measurement is made at whatever the
+    run's (None: the run's own); ``features``: the feature space every method selects
+    on (None: each method's own ``features``); ``unit``: what its runs share a draw of
+    (``seed``, or ``encoder`` where seeds share an encoder: its tables then say how
+    many encoders and which are doubtful). The statistics find the grouping in the
+    records themselves (``report.stats``)."""
 
     name: str
     experiments_at: tuple[str, ...]

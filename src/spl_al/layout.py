@@ -1,5 +1,8 @@
-"""Where a run's files lie in its results folder: the one home of the layout that the
-workflow writes and the benches and docs generators read.
+"""Where a run's files lie in its results folder: the one home of the files that the
+workflow writes and something else reads back (the library's steps, the benches, the
+docs generators). A job's own working files (logs, benchmarks, the round-0 fits under
+``initial*/``, a round's query and labeling batch, the embedding framework's encoders
+and runs) are named in the rule that writes them.
 
 ```
 {results}/{dataset}/data/{dataset.npz, observed.npz, variants/}

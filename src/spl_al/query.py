@@ -3,8 +3,9 @@ groups the oracle labels next, whatever model scored them.
 
 A k-means candidate-pool strategy (DUIS, diversity) must draw N_cand from at least
 twice as many unlabeled groups (``strategies.duis.check_candidate_pool``); the random
-choices come from the query's own stream (``seeding.round_rng(QUERY, seed, round)``,
-the same for every method at a seed); the picks are held to the strategy contract
+choices come from the query's own stream (``seeding.round_rng(QUERY, seed, r)``, r the
+round just trained, so the query that makes round r + 1; the same for every method at a
+seed); the picks are held to the strategy contract
 whatever the strategy (one from another package may override ``select``): ``batch``
 (or every remaining) distinct indices of unlabeled groups.
 """

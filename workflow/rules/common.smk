@@ -170,7 +170,7 @@ def round_file(wildcards, r, name):
     run = RUN.format(
         dataset=wildcards.dataset, method=wildcards.method, seed=wildcards.seed
     )
-    return f"{run}/round{r}/{name}"
+    return layout.round_file(run, r, name)
 
 
 def labeled_in_round(wildcards, r):

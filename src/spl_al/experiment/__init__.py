@@ -13,7 +13,7 @@
   encoder a run seed reads), ``outputs`` (what `all` asks of a dataset in a
   framework).
 - ``step_args``: the small records a step takes (``RoundId``,
-  ``ModelFiles``, ``RoundStart``; ``Compute`` is ``spl_al.training``'s), importable
+  ``ModelFiles``, ``RoundStart``, ``ProbeRuns``; ``Compute`` is ``spl_al.training``'s), importable
   without numpy or torch.
 
 How a job runs (the warm server, its client and the job log) is ``spl_al.warm``.

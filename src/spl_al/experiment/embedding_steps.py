@@ -12,9 +12,9 @@ one job.
 
 The round-0 sets are the seeds' own (``spl_al.cold_start.round0_set``, as the
 supervised framework's ``initial_set`` chooses them; a cold start reads the run seed's
-encoder), and a query's random stream is
-the supervised query's (``seeding.round_rng(QUERY, seed, round)``): the two
-frameworks differ in the model alone.
+encoder), and the query is the supervised framework's (``spl_al.query.query_batch``,
+its random stream keyed by the run seed and the round just trained): the two frameworks
+differ in the model alone.
 """
 
 from __future__ import annotations

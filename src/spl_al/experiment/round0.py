@@ -2,7 +2,9 @@
 (``cold_start.round0_set``: random, stratified, or a cold start on the encoder's
 embeddings) and written as its JSON record. The simulated oracle's step
 (``initial_set``) and the human oracle's (``human.initial_set``) both choose and write
-it here, so round 0 is drawn one way.
+it here; the embedding framework, whose embeddings are already in memory, calls
+``cold_start.round0_set`` itself (``embedding_steps``): every round 0 is drawn by that
+one function, from the seed's ``seeding.round0_rng``.
 
 Index convention: training-split indices (``dataset.train_idx[i]`` is the sample).
 """
