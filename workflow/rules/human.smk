@@ -12,7 +12,7 @@ rule initial_set_human:
         observed=OBSERVED_FILE,
         seed_labels=lambda w: config["datasets"][w.dataset].get("seed_labels") or [],
     output:
-        f"{RESULTS}/{{dataset}}/initial/seed{{seed}}.json",
+        layout.initial_file(RESULTS, "{dataset}", "{seed}"),
     log:
         f"{RESULTS}/logs/{{dataset}}/initial_seed{{seed}}.log",
     benchmark:
@@ -71,7 +71,7 @@ rule query_human:
 rule to_label_initial:
     input:
         data=DATASET_FILE,
-        request=f"{RESULTS}/{{dataset}}/initial/seed{{seed}}.json",
+        request=layout.initial_file(RESULTS, "{dataset}", "{seed}"),
     output:
         directory(f"{RESULTS}/{{dataset}}/initial/seed{{seed}}/to_label"),
     log:
