@@ -29,11 +29,13 @@ Run it from the repository root:
 from __future__ import annotations
 
 import argparse
+import contextlib
 import functools
 import json
 import math
 import shutil
 import sys
+import tempfile
 from datetime import UTC, datetime
 from pathlib import Path
 
@@ -601,17 +603,24 @@ DEFAULT_RESULTS_PAGE = """# Results
 """
 
 
-def framework_view(results: Path, folder: Path, framework=EMBEDDING) -> Path:
-    """``folder`` made a results folder of a framework's outputs kept in a subfolder of
-    each dataset's: one link per dataset, ``folder/{dataset}`` ->
+@contextlib.contextmanager
+def framework_view(results: Path, framework=EMBEDDING):
+    """A results folder holding ``framework``'s outputs: ``results`` itself for a
+    framework that writes into each dataset's folder, else, while the context lasts, a
+    temporary folder with one link per dataset, ``{dataset}`` ->
     ``results/{dataset}/{subfolder}`` (``FrameworkKind.folder``)."""
     kind = get_framework(framework)
-    folder.mkdir(parents=True, exist_ok=True)
-    for dataset_dir in sorted(p for p in Path(results).iterdir() if p.is_dir()):
-        own = Path(kind.folder(results, dataset_dir.name))
-        if Path(table_file(own, "budget.csv")).is_file():
-            (folder / dataset_dir.name).symlink_to(own.resolve())
-    return folder
+    if not kind.subfolder:
+        yield Path(results)
+        return
+    with tempfile.TemporaryDirectory() as tmp:
+        folder = Path(tmp) / Path(results).name
+        folder.mkdir()
+        for dataset_dir in sorted(p for p in Path(results).iterdir() if p.is_dir()):
+            own = Path(kind.folder(results, dataset_dir.name))
+            if Path(table_file(own, "budget.csv")).is_file():
+                (folder / dataset_dir.name).symlink_to(own.resolve())
+        yield folder
 
 
 def update(
@@ -624,65 +633,45 @@ def update(
     framework: str = DEFAULT.name,
     drop=(),
 ) -> list[Path]:
-    """``update_pages`` of the run's ``framework`` (``spl_al.frameworks``): one whose
-    outputs sit in a subfolder of each dataset's (the embedding framework's
-    ``embedding/``) is read through ``framework_view``."""
+    """Copy the figures, rewrite docs/{page}.md's generated block and the README's block
+    named ``page`` (the README is left alone when it has no such block, unless ``page``
+    is the default run's ``results``), from the run's ``framework`` outputs
+    (``framework_view``). With ``keep_absent`` the datasets the folder lacks keep what
+    both blocks said of them, but those ``drop`` names (a dataset such a run no longer
+    makes). Returns the files written."""
     if framework not in framework_names():
         raise ValueError(
             f"--framework must be one of {', '.join(framework_names())}, got {framework!r}."
         )
-    if not get_framework(framework).subfolder:
-        return update_pages(results, docs, readme, page=page, keep_absent=keep_absent, drop=drop)
-    import tempfile
-
-    with tempfile.TemporaryDirectory() as tmp:
-        view = framework_view(results, Path(tmp) / Path(results).name, framework)
-        return update_pages(
-            view, docs, readme, page=page, keep_absent=keep_absent, framework=framework, drop=drop
-        )
-
-
-def update_pages(
-    results: Path,
-    docs: Path = Path("docs"),
-    readme: Path = Path("README.md"),
-    *,
-    page: str = BLOCK,
-    keep_absent: bool = False,
-    framework: str = DEFAULT.name,
-    drop=(),
-) -> list[Path]:
-    """Copy the figures, rewrite docs/{page}.md's generated block and the README's block
-    named ``page`` (the README is left alone when it has no such block, unless ``page``
-    is the default run's ``results``). With ``keep_absent`` the datasets the folder
-    lacks keep what both blocks said of them, but those ``drop`` names (a dataset such
-    a run no longer makes). Returns the files written."""
-    results, docs, readme = Path(results), Path(docs), Path(readme)
+    docs, readme = Path(docs), Path(readme)
     drop = frozenset(drop)
-    if not datasets(results):
-        raise ValueError(f"{results} holds no dataset with tables/budget.csv.")
-    if not page.replace("-", "").replace("_", "").isalnum():
-        raise ValueError(f"--page must be a plain name like 'decisive', got {page!r}.")
+    with framework_view(results, framework) as results:
+        if not datasets(results):
+            raise ValueError(f"{results} holds no dataset with tables/budget.csv.")
+        if not page.replace("-", "").replace("_", "").isalnum():
+            raise ValueError(f"--page must be a plain name like 'decisive', got {page!r}.")
 
-    # Both texts are made before anything is written: a README without its block
-    # leaves every file as it was.
-    path = docs / f"{page}.md"
-    names = {
-        d: [(figure_name(d, n, page), c) for n, c in _figures_of(results, d)]
-        for d in datasets(results)
-    }
-    text = path.read_text() if path.exists() else DEFAULT_RESULTS_PAGE
-    earlier = block(text, BLOCK) if keep_absent else None
-    body = results_block(results, names, page=page, earlier=earlier, framework=framework, drop=drop)
-    writes = [(path, replace_block(text, BLOCK, body))]
-    if readme.exists():
-        text = readme.read_text()
-        start = markers(page)[0]
-        if page == BLOCK or any(line.strip() == start for line in text.split("\n")):
-            earlier = block(text, page) if keep_absent else None
-            body = readme_block(results, page, earlier, framework=framework, drop=drop)
-            writes.append((readme, replace_block(text, page, body)))
-    copy_figures(results, docs / "figures", page)
+        # Both texts are made before anything is written: a README without its block
+        # leaves every file as it was.
+        path = docs / f"{page}.md"
+        names = {
+            d: [(figure_name(d, n, page), c) for n, c in _figures_of(results, d)]
+            for d in datasets(results)
+        }
+        text = path.read_text() if path.exists() else DEFAULT_RESULTS_PAGE
+        earlier = block(text, BLOCK) if keep_absent else None
+        body = results_block(
+            results, names, page=page, earlier=earlier, framework=framework, drop=drop
+        )
+        writes = [(path, replace_block(text, BLOCK, body))]
+        if readme.exists():
+            text = readme.read_text()
+            start = markers(page)[0]
+            if page == BLOCK or any(line.strip() == start for line in text.split("\n")):
+                earlier = block(text, page) if keep_absent else None
+                body = readme_block(results, page, earlier, framework=framework, drop=drop)
+                writes.append((readme, replace_block(text, page, body)))
+        copy_figures(results, docs / "figures", page)
     for target, content in writes:
         atomic_write_text(target, content)
     return [target for target, _ in writes]
