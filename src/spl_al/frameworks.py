@@ -110,20 +110,21 @@ _SPACES: dict[str, FeatureSpace] = {}
 _FRAMEWORKS: dict[str, FrameworkKind] = {}
 
 
+def _add(registry: dict, what: str, item):
+    if item.name in registry:
+        raise ValueError(f"{what} {item.name!r} is already registered.")
+    registry[item.name] = item
+    return item
+
+
 def register_feature_space(space: FeatureSpace) -> FeatureSpace:
     """Add ``space`` to the registry (its name must be new); returns it."""
-    if space.name in _SPACES:
-        raise ValueError(f"feature space {space.name!r} is already registered.")
-    _SPACES[space.name] = space
-    return space
+    return _add(_SPACES, "feature space", space)
 
 
 def register_framework(kind: FrameworkKind) -> FrameworkKind:
     """Add ``kind`` to the registry (its name must be new); returns it."""
-    if kind.name in _FRAMEWORKS:
-        raise ValueError(f"framework {kind.name!r} is already registered.")
-    _FRAMEWORKS[kind.name] = kind
-    return kind
+    return _add(_FRAMEWORKS, "framework", kind)
 
 
 def unregister_framework(name: str) -> None:
