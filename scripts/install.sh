@@ -3,7 +3,8 @@
 # (spl-al[baselines]) into the current Python ($PYTHON, default python3).
 #
 # torch, which is the only heavy dependency, is handled first:
-# - a torch that is already installed (for example a CUDA build) is kept;
+# - a torch that is already installed (for example a CUDA build) is kept, when it is
+#   2.5 or newer (older: one sentence, and nothing is installed);
 # - on a machine with an NVIDIA driver (nvidia-smi works), torch==2.13.0 comes from
 #   the normal package index, which on Linux x86_64 is the CUDA build;
 # - otherwise (a CPU-only laptop) the CPU build torch==2.13.0 comes from PyTorch's
@@ -19,6 +20,11 @@ CPU_INDEX=https://download.pytorch.org/whl/cpu
 
 # (versions from the package metadata: importing torch takes seconds)
 if have=$("$PY" -c "from importlib.metadata import version; print(version('torch'))" 2>/dev/null); then
+  # pyproject.toml asks for torch >= 2.5: an older one would make pip fetch a new build
+  if ! "$PY" -c "import sys; v = tuple(int(x) for x in sys.argv[1].split('+')[0].split('.')[:2]); sys.exit(v < (2, 5))" "$have"; then
+    echo "install.sh: the installed torch $have is older than 2.5, the oldest spl-al runs on; upgrade it (for a CUDA build, from your CUDA's PyTorch index) or uninstall it and run this again" >&2
+    exit 1
+  fi
   echo "install.sh: keeping the installed torch $have"
 elif command -v nvidia-smi >/dev/null 2>&1 && nvidia-smi >/dev/null 2>&1; then
   echo "install.sh: NVIDIA GPU found, installing $TORCH from the package index (CUDA build)"

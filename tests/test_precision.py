@@ -140,17 +140,55 @@ def _conv_error(device: str) -> float:
     return float(((out - ref).abs() / ref.abs().clamp_min(1.0)).max())
 
 
+NEW_TF32_API = hasattr(getattr(torch.backends.cudnn, "conv", None), "fp32_precision")
+"""torch >= 2.9 sets TF32 by ``fp32_precision``; older torch by ``allow_tf32`` flags."""
+
+
+def _set_tf32(allowed: bool) -> None:
+    """cuDNN's and cuBLAS's fp32 as TF32 (their default on CUDA) or not, by the API of
+    the installed torch."""
+    if NEW_TF32_API:
+        torch.backends.cudnn.conv.fp32_precision = "tf32" if allowed else "ieee"
+        torch.backends.cuda.matmul.fp32_precision = "tf32" if allowed else "ieee"
+    else:
+        torch.backends.cudnn.allow_tf32 = allowed
+        torch.backends.cuda.matmul.allow_tf32 = allowed
+
+
+def _tf32_allowed() -> bool:
+    if NEW_TF32_API:
+        return "tf32" in (
+            torch.backends.cudnn.conv.fp32_precision,
+            torch.backends.cuda.matmul.fp32_precision,
+        )
+    return bool(torch.backends.cudnn.allow_tf32 or torch.backends.cuda.matmul.allow_tf32)
+
+
 def test_fp32_means_ieee_fp32_not_tf32_once_a_step_applies_its_compute():
-    torch.backends.cudnn.conv.fp32_precision = "tf32"  # cuDNN's own default
+    _set_tf32(True)  # cuDNN's own default
     Compute("cpu", threads=None).apply()
-    assert torch.backends.cudnn.conv.fp32_precision == "ieee"
-    assert torch.backends.cuda.matmul.fp32_precision == "ieee"
+    assert not _tf32_allowed()
     assert _conv_error("cpu") < 1e-3
+
+
+def test_ieee_fp32_on_a_torch_without_the_fp32_precision_api(monkeypatch):
+    """A torch older than 2.9 (a CUDA build scripts/install.sh keeps) has no
+    ``fp32_precision``: IEEE fp32 is set by the flags it had instead."""
+    from types import SimpleNamespace
+
+    from spl_al.training.device import ieee_fp32
+
+    cudnn = SimpleNamespace(allow_tf32=True, deterministic=False, benchmark=False)
+    matmul = SimpleNamespace(allow_tf32=True)
+    monkeypatch.setattr(torch.backends, "cudnn", cudnn)
+    monkeypatch.setattr(torch.backends.cuda, "matmul", matmul)
+    ieee_fp32()
+    assert cudnn.allow_tf32 is False and matmul.allow_tf32 is False
 
 
 @pytest.mark.skipif(not torch.cuda.is_available(), reason="needs a CUDA GPU")
 def test_an_fp32_convolution_on_cuda_is_ieee_fp32():
-    torch.backends.cudnn.conv.fp32_precision = "tf32"
+    _set_tf32(True)
     tf32 = _conv_error("cuda")
     Compute("cuda").apply()
     # TF32 keeps 10 mantissa bits (~1e-2 on these 576-term sums); IEEE fp32 23 (~1e-5)

@@ -69,7 +69,14 @@ def ieee_fp32() -> None:
 
     cuDNN's convolutions default to TF32 on Ampere and later GPUs (10 mantissa bits),
     so an "fp32" run there would be another numeric draw than the same run on a CPU.
-    bf16/fp16 autocast regions are unaffected: this governs fp32 operands alone.
+    bf16/fp16 autocast regions are unaffected: this governs fp32 operands alone. torch
+    2.9 replaced the ``allow_tf32`` flags by ``fp32_precision``; an older torch (a CUDA
+    build ``scripts/install.sh`` keeps) gets the flags.
     """
-    torch.backends.cuda.matmul.fp32_precision = "ieee"
-    torch.backends.cudnn.conv.fp32_precision = "ieee"
+    matmul, cudnn = torch.backends.cuda.matmul, torch.backends.cudnn
+    if hasattr(getattr(cudnn, "conv", None), "fp32_precision"):  # torch >= 2.9
+        matmul.fp32_precision = "ieee"
+        cudnn.conv.fp32_precision = "ieee"
+    else:  # older torch: the two flags that API replaced
+        matmul.allow_tf32 = False
+        cudnn.allow_tf32 = False
