@@ -162,8 +162,10 @@ def _head_inputs(n=200, seed=0):
         unlabeled_idx=np.arange(n),
         labeled_idx=np.arange(n, n + 5),
         features=f.astype(np.float32),
+        labeled_features=f[:5].astype(np.float32),
         head_weight=w.astype(np.float32),
         head_bias=np.zeros(c),
+        head_dropout=np.float64(0.75),
     )
 
 
@@ -195,6 +197,53 @@ def test_dropquery_picks_among_the_samples_whose_prediction_dropout_changes():
         rng=np.random.default_rng(1),
     )  # fmt: skip
     assert (2 * again[picks] > 3).all()
+
+
+def test_dropquery_queries_at_the_dropout_its_classifier_trained_with():
+    inputs = _head_inputs()
+    inputs.head_dropout = np.float64(0.5)  # the supervised CNN's default
+    strategy = strategies.get("dropquery")
+    strategy.select(inputs, 8, np.random.default_rng(1))
+    assert strategy.decision["dropout"] == 0.5 and strategy.params()["dropout"] is None
+    # an explicit rate overrides it
+    fixed = strategies.get("dropquery", dropout=0.25)
+    fixed.select(inputs, 8, np.random.default_rng(1))
+    assert fixed.decision["dropout"] == 0.25
+    # a classifier trained without dropout gives none to query at: one sentence
+    inputs.head_dropout = np.float64(0.0)
+    with pytest.raises(ValueError, match="trained without dropout") as err:
+        strategy.select(inputs, 8, np.random.default_rng(1))
+    assert str(err.value).count(". ") == 0
+
+
+def test_dropquery_clusters_features_standardised_by_the_labeled_set():
+    from spl_al.strategies.dropquery import standardised
+
+    rng = np.random.default_rng(0)
+    labeled = rng.normal([5.0, -2.0], [10.0, 0.1], size=(400, 2))
+    z = standardised(labeled, labeled)
+    assert np.allclose(z.mean(axis=0), 0, atol=1e-5) and np.allclose(z.std(axis=0), 1, atol=1e-3)
+    # a feature constant on the labeled set is scaled by BatchNorm's epsilon, not 0
+    flat = np.c_[labeled[:, 0], np.ones(400)]
+    assert np.isfinite(standardised(flat + 1, flat)).all()
+
+
+def test_dropout_head_trains_under_its_dropout_like_the_reference():
+    from spl_al.linear_probe import HEAD_DROPOUT, DropoutHead
+
+    rng = np.random.default_rng(0)
+    centres = rng.normal(0, 1, (3, 16))
+    y = np.repeat(np.arange(3), 40)
+    x = centres[y] + rng.normal(0, 0.3, (120, 16)) + 4.0  # off-centre: the head standardises
+    head = DropoutHead(4, HEAD_DROPOUT).fit(x, y, np.random.default_rng(1))
+    w, b, p = head.head()
+    assert p == 0.75 and w.shape == (4, 16) and b.shape == (4,)
+    assert ((x @ w.T + b).argmax(axis=1) == y).mean() > 0.95  # class 3: never labeled
+    assert 20 < head.epochs <= 400  # stopped by the loss plateau or the epoch cap
+    again = DropoutHead(4).fit(x, y, np.random.default_rng(1)).head()
+    assert np.array_equal(again[0], w)  # the same masks and start from the same rng
+    with pytest.raises(ValueError, match="dropout"):
+        DropoutHead(4, dropout=1.0)
 
 
 def test_dropquery_fills_a_short_candidate_set_with_the_most_changed():

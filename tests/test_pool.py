@@ -84,6 +84,7 @@ def _one_al_round(depth, valid, oracle, labeled, seed):
     train(model, d, v, t, cfg=cfg, seed=seed, compute=CPU, log=io.StringIO())
     params = {"duis": {"n_cand": 8}, "diversity": {"n_cand": 8}, "skactiveml": {"cls": "TypiClust"}}
     params["probcover"] = {"n_classes": 3}
+    params["dropquery"] = {"dropout": 0.5}  # this model trains without dropout
     built = {n: strategies.get(n, **params.get(n, {})) for n in strategies.names()}
     needs = set().union(*(s.needs for s in built.values()))
     inputs = compute_inputs(

@@ -19,6 +19,7 @@ CPU = Compute("cpu")
 
 ALL_FIELDS = ("entropy", "margin", "gamma", "inconsistency", "features", "group_features")
 ALL_FIELDS += ("labeled_features", "grad_q", "grad_h", "grad_embedding", "head_weight", "head_bias")
+ALL_FIELDS += ("head_dropout",)
 
 
 class CountingModel:
@@ -28,6 +29,7 @@ class CountingModel:
         self.model, self.images = model, 0
         self.task, self.n_classes, self.feature_dim = model.task, model.n_classes, model.feature_dim
         self.fc = getattr(model, "fc", None)  # the classifier head (DropQuery's need)
+        self.dropout = getattr(model, "dropout", None)  # and the dropout it trained with
 
     def to(self, device):
         self.model.to(device)

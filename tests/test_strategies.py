@@ -314,6 +314,7 @@ def make_inputs(n_unl=30, n_lab=6, c=4, d=5, g=3, kind="random", dense=False, se
         # a linear head: logits = features @ W.T + b (DropQuery's)
         "head_weight": rng.normal(size=(c, d)),
         "head_bias": rng.normal(size=c),
+        "head_dropout": np.float64(0.5),
     }
     if dense:
         parts["grad_embedding"] = pixel_gradient_embedding(probs[:, 0], feats[:, 0][:, None])

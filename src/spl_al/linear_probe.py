@@ -11,6 +11,12 @@ this classifier's probabilities as its predictions, through the same
 classifier is exactly (p - onehot(argmax p)) x embedding, DUIS's inconsistency is
 the classifier's on the variants' embeddings.
 
+DropQuery perturbs a classifier's input with the dropout that classifier trained with.
+The probe trains with none, so DropQuery's query reads a head of its own,
+``DropoutHead``: the reference's classifier (dropout on the embedding, then
+standardisation and a linear layer), fitted on the same labeled images as the probe,
+which stays the model every method is measured by.
+
 Everything here is float64 numpy and scikit-learn: no precision setting reaches it.
 """
 
@@ -70,28 +76,6 @@ class LinearProbe:
             self._model.fit((x - self._mean) / self._scale, y)
         return self
 
-    def head(self) -> tuple[np.ndarray, np.ndarray]:
-        """(W (C, d), b (C,)) with softmax(x @ W.T + b) = ``predict_proba(x)`` on raw
-        embeddings x: the standardisation folded into the weights, so that a strategy
-        that perturbs the classifier's input (DropQuery's dropout) perturbs the
-        embedding itself. A class without a labeled example gets b = -inf."""
-        if self._classes is None:
-            raise ValueError("LinearProbe.head before fit.")
-        d = len(self._mean)
-        weight = np.zeros((self.n_classes, d))
-        bias = np.full(self.n_classes, -np.inf)
-        if self._model is None:
-            bias[self._classes[0]] = 0.0
-            return weight, bias
-        coef, intercept = self._model.coef_, self._model.intercept_
-        if len(self._classes) == 2:  # scikit-learn keeps one row: logit(1) - logit(0)
-            coef = np.vstack([np.zeros(d), coef[0]])
-            intercept = np.array([0.0, intercept[0]])
-        w = coef / self._scale
-        weight[self._classes] = w
-        bias[self._classes] = intercept - w @ self._mean
-        return weight, bias
-
     def predict_proba(self, x) -> np.ndarray:
         """(n, C) class probabilities of embeddings ``x`` (n, d)."""
         if self._classes is None:
@@ -105,6 +89,102 @@ class LinearProbe:
         return out
 
 
+HEAD_DROPOUT = 0.75
+"""DropQuery's dropout p: its reference classifier's ``dropout_p``
+(github.com/sanketx/AL-foundation-models, ``conf/al_train.yaml``)."""
+
+
+class DropoutHead:
+    """A linear classifier trained under input dropout, as DropQuery's reference code
+    trains its classifier (``classifiers/linear_classifier.py``): logits =
+    W ((x * m / (1 - p) - mu) / s) + b, m ~ Bernoulli(1 - p) per feature during training,
+    mu and s the training inputs' mean and standard deviation (sqrt(var + 1e-5), the
+    statistics its BatchNorm1d(affine=False) gathers), cross-entropy, AdamW (lr 1e-2,
+    weight decay 1e-2, full batch), at most 400 epochs, stopped when the epoch's loss has
+    not fallen by 1e-3 for 20 epochs (its EarlyStopping).
+
+    Args:
+        n_classes: C; a class without a labeled example keeps its (trained-down) logit.
+        dropout: p in [0, 1).
+    """
+
+    def __init__(
+        self,
+        n_classes: int,
+        dropout: float = HEAD_DROPOUT,
+        *,
+        lr: float = 1e-2,
+        weight_decay: float = 1e-2,
+        max_epochs: int = 400,
+        patience: int = 20,
+        min_delta: float = 1e-3,
+    ) -> None:
+        if not 0 <= float(dropout) < 1:
+            raise ValueError(f"DropoutHead: dropout must lie in [0, 1), got {dropout!r}.")
+        self.n_classes = int(n_classes)
+        self.dropout = float(dropout)
+        self.lr, self.weight_decay = float(lr), float(weight_decay)
+        self.max_epochs, self.patience, self.min_delta = int(max_epochs), int(patience), min_delta
+        self._fitted = None
+        self.epochs = 0
+
+    def fit(self, x, y, rng: np.random.Generator) -> DropoutHead:
+        """Fit on embeddings ``x`` (n, d) with classes ``y`` (n,) in 0..C-1; ``rng``
+        draws the initial weights (torch's ``nn.Linear`` rule) and every dropout mask."""
+        x = np.asarray(x, dtype=np.float64)
+        y = np.asarray(y).astype(np.int64)
+        if x.ndim != 2 or y.shape != (len(x),):
+            raise ValueError(f"x must be (n, d) and y (n,), got {x.shape} and {y.shape}.")
+        n, d = x.shape
+        mu, scale = x.mean(axis=0), np.sqrt(x.var(axis=0) + 1e-5)
+        bound = 1.0 / np.sqrt(d)
+        params = [
+            rng.uniform(-bound, bound, (self.n_classes, d)),
+            rng.uniform(-bound, bound, self.n_classes),
+        ]
+        moments = [[np.zeros_like(p), np.zeros_like(p)] for p in params]
+        onehot = np.eye(self.n_classes)[y]
+        # z = (x * mask / (1 - p) - mu) / s = mask * xs - c, with xs and c computed once
+        xs, c = x / ((1.0 - self.dropout) * scale), mu / scale
+        best, waited = np.inf, 0
+        b1, b2, eps = 0.9, 0.999, 1e-8  # torch.optim.AdamW's defaults
+        for epoch in range(1, self.max_epochs + 1):
+            mask = rng.random(x.shape) >= self.dropout
+            z = mask * xs - c
+            logits = z @ params[0].T + params[1]
+            logits -= logits.max(axis=1, keepdims=True)
+            prob = np.exp(logits)
+            prob /= prob.sum(axis=1, keepdims=True)
+            loss = -np.log(prob[np.arange(n), y] + 1e-300).mean()
+            g = (prob - onehot) / n
+            grads = [g.T @ z, g.sum(axis=0)]
+            for p, grad, m in zip(params, grads, moments, strict=True):
+                p *= 1.0 - self.lr * self.weight_decay  # decoupled weight decay
+                m[0] = b1 * m[0] + (1 - b1) * grad
+                m[1] = b2 * m[1] + (1 - b2) * grad**2
+                step = (m[0] / (1 - b1**epoch)) / (np.sqrt(m[1] / (1 - b2**epoch)) + eps)
+                p -= self.lr * step
+            self.epochs = epoch
+            if loss < best - self.min_delta:
+                best, waited = loss, 0
+            else:
+                waited += 1
+                if waited >= self.patience:
+                    break
+        self._fitted = (params[0], params[1], mu, scale)
+        return self
+
+    def head(self) -> tuple[np.ndarray, np.ndarray, float]:
+        """(W (C, d), b (C,), p) on raw embeddings: softmax(x @ W.T + b) is the head's
+        prediction without dropout, the standardisation folded into W and b so that
+        dropout on the raw embedding is what it trained with."""
+        if self._fitted is None:
+            raise ValueError("DropoutHead.head before fit.")
+        weight, bias, mu, scale = self._fitted
+        w = weight / scale
+        return w, bias - w @ mu, self.dropout
+
+
 def probe_inputs(
     probe: LinearProbe,
     embeddings: np.ndarray,
@@ -113,6 +193,7 @@ def probe_inputs(
     unlabeled_idx,
     labeled_idx,
     n_images: int,
+    head: tuple | None = None,
 ) -> StrategyInputs:
     """What a strategy with ``needs`` selects from, in the embedding framework.
 
@@ -124,6 +205,7 @@ def probe_inputs(
         unlabeled_idx, labeled_idx: disjoint training-set indices.
         n_images: images per group the group needs (DUIS's margin and inconsistency,
             group features) are computed on: 1 + the method's M.
+        head: (W, b, p) the "head" need reads (``DropoutHead.head``); needed with it.
 
     Returns:
         ``StrategyInputs`` with exactly the needed parts; features are embeddings.
@@ -141,7 +223,9 @@ def probe_inputs(
     if "labeled_features" in needs:
         arrays["labeled_features"] = embeddings[lab, 0]
     if "head" in needs:
-        arrays["head_weight"], arrays["head_bias"] = probe.head()
+        if head is None:
+            raise ValueError("probe_inputs: the 'head' need takes a head (DropoutHead.head()).")
+        arrays["head_weight"], arrays["head_bias"], arrays["head_dropout"] = head
     arrays = {
         k: v.astype(np.float32) if np.ndim(v) == 2 else np.asarray(v, dtype=np.float64)
         for k, v in arrays.items()

@@ -151,13 +151,15 @@ def compute_inputs(
         value = np.concatenate(chunks)
         arrays[name] = value.astype(np.float32) if value.ndim == 2 else value.astype(np.float64)
     if "head" in needs:
-        arrays["head_weight"], arrays["head_bias"] = classifier_head(model)
+        weight, bias, dropout = classifier_head(model)
+        arrays.update(head_weight=weight, head_bias=bias, head_dropout=np.float64(dropout))
     return StrategyInputs(unlabeled_idx=unl, labeled_idx=lab, **arrays)
 
 
-def classifier_head(model: nn.Module) -> tuple[np.ndarray, np.ndarray]:
-    """(W (C, d) float32, b (C,) float64): a classifier's last linear layer, logits = W
-    f + b on its penultimate features f (its dropout is off when scoring), or a
+def classifier_head(model: nn.Module) -> tuple[np.ndarray, np.ndarray, float]:
+    """(W (C, d) float32, b (C,) float64, p): a classifier's last linear layer, logits
+    = W f + b on its penultimate features f (its dropout is off when scoring), and the
+    dropout rate p its features were trained with before it (0 without one), or a
     ValueError for a model without one (a segmenter)."""
     fc = getattr(model, "fc", None)
     if getattr(model, "task", None) != "classification" or not isinstance(fc, nn.Linear):
@@ -167,4 +169,5 @@ def classifier_head(model: nn.Module) -> tuple[np.ndarray, np.ndarray]:
         )
     weight = fc.weight.detach().float().cpu().numpy()
     bias = fc.bias.detach().double().cpu().numpy() if fc.bias is not None else np.zeros(len(weight))
-    return weight, bias
+    dropout = getattr(model, "dropout", None)
+    return weight, bias, float(dropout.p) if isinstance(dropout, nn.Dropout) else 0.0

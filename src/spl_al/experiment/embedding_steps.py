@@ -34,11 +34,12 @@ from spl_al.experiment.encoders import load_embeddings
 from spl_al.experiment.plan import MethodSpec, batch_of
 from spl_al.experiment.step_args import ProbeRuns
 from spl_al.frameworks import EMBEDDING
-from spl_al.linear_probe import DEFAULT_C, LinearProbe, probe_inputs
+from spl_al.linear_probe import DEFAULT_C, DropoutHead, LinearProbe, probe_inputs
 from spl_al.models.configured import save_model
 from spl_al.pool import Pool
 from spl_al.query import query_batch
 from spl_al.report.records import round_record
+from spl_al.seeding import TRAIN, round_rng
 from spl_al.strategies import get
 from spl_al.training.compute import LOCAL, Compute
 from spl_al.training.contrastive import EncoderConfig, embed, encoder_health
@@ -297,6 +298,11 @@ def _run(facts: ProbeData, spec: MethodSpec, *, which, al, rounds, c, n_variants
             records[-1]["initial"] = chosen  # how round 0 was chosen (and its decision)
         if r + 1 == rounds:
             break
+        head = None
+        if "head" in strategy.needs:  # DropQuery's own head, trained under its dropout
+            y = np.repeat(facts.train_labels[lab], m_train + 1)
+            fitted = DropoutHead(facts.n_classes).fit(x, y, round_rng(TRAIN, seed, r))
+            head = fitted.head()
         inputs = probe_inputs(
             model,
             facts.train,
@@ -304,6 +310,7 @@ def _run(facts: ProbeData, spec: MethodSpec, *, which, al, rounds, c, n_variants
             unlabeled_idx=pool.unlabeled_idx,
             labeled_idx=lab,
             n_images=1 + spec.variants_seen(n_variants),
+            head=head,
         )
         where = {"seed": seed, "round_": r + 1, "dataset": dataset, "method": spec.name}
         pool.add(query_batch(strategy, spec.strategy, inputs, batch_of(al, r + 1), **where))

@@ -42,14 +42,20 @@ NEEDS: dict[str, tuple[str, ...]] = {
     # dense pixel-averaged embedding grad_embedding (n, C * d) for segmentation
     "grad_embedding": ("grad_q", "grad_h", "grad_embedding"),
     # classification: the model's last linear layer, logits = features @ W.T + b, in the
-    # units of ``features``: W (C, d), b (C,); a class the model cannot predict has b = -inf
-    "head": ("head_weight", "head_bias"),
+    # units of ``features``: W (C, d), b (C,); a class the model cannot predict has b = -inf;
+    # and p, the dropout its input was trained with (0: none), a 0-d array
+    "head": ("head_weight", "head_bias", "head_dropout"),
 }
 # needs that require a forward pass over every image of a group, not just the observed one
 GROUP_NEEDS = frozenset({"margin_inconsistency", "group_features"})
 ARRAY_FIELDS = tuple(dict.fromkeys(f for fs in NEEDS.values() for f in fs))
 # fields whose rows are not one per unlabeled group: name -> (ndim, rows)
-OTHER_ROWS = {"labeled_features": (2, "labeled"), "head_weight": (2, None), "head_bias": (1, None)}
+OTHER_ROWS = {
+    "labeled_features": (2, "labeled"),
+    "head_weight": (2, None),
+    "head_bias": (1, None),
+    "head_dropout": (0, None),
+}
 
 
 def check_needs(needs) -> frozenset[str]:
@@ -85,7 +91,8 @@ class StrategyInputs:
         entropy, margin, gamma, inconsistency: (n,) per-group scores (see ``NEEDS``).
         features, group_features: (n, d); labeled_features: (n_labeled, d).
         grad_q: (n, C), grad_h: (n, d), grad_embedding: (n, C * d): BADGE embeddings.
-        head_weight: (C, d), head_bias: (C,): the classifier's last linear layer.
+        head_weight: (C, d), head_bias: (C,): the classifier's last linear layer;
+        head_dropout: () the dropout rate its input was trained with (0: none).
     """
 
     unlabeled_idx: np.ndarray
@@ -102,6 +109,7 @@ class StrategyInputs:
     grad_embedding: np.ndarray | None = None
     head_weight: np.ndarray | None = None
     head_bias: np.ndarray | None = None
+    head_dropout: np.ndarray | None = None
 
     def __post_init__(self) -> None:
         self.unlabeled_idx = as_index_array("unlabeled_idx", self.unlabeled_idx)
