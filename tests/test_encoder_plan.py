@@ -53,3 +53,47 @@ def test_the_config_check_refuses_a_plan_before_any_job():
         ValueError, match=r"real_cls\.embedding\.encoder\.seeds' lists encoder seed 0"
     ):
         check_plan(config)
+
+
+def _default_config():
+    import yaml
+
+    with open("config/config.yaml") as f:
+        return yaml.safe_load(f)
+
+
+def test_supervised_seeds_sharing_an_encoder_are_refused_naming_block():
+    """The supervised framework counts seeds as independent draws: a method that selects
+    on the embedding at seeds 1-3 with block 10 would read one encoder three times."""
+    from spl_al.experiment.plan import check_plan
+
+    config = _default_config()
+    config["datasets"]["real_cls"]["experiments"]["budget"]["methods"].append("typiclust_ssl")
+    with pytest.raises(ValueError) as err:
+        check_plan(config)
+    message = str(err.value)
+    assert message.startswith("config key 'datasets.real_cls.embedding.encoder.block'")
+    # (matched: true adds its twin, syn_typiclust_ssl, which reads it too)
+    assert "seeds 1 and 2 of 'syn_typiclust_ssl' read the same encoder (seed 0)" in message
+    assert message.count(". ") == 0
+    # one encoder per run seed: the seeds are independent again
+    config["datasets"]["real_cls"]["embedding"]["encoder"]["block"] = 1
+    config["datasets"]["real_cls"]["embedding"]["experiments"] = None
+    check_plan(config)
+
+
+def test_a_supervised_run_that_reads_an_encoder_names_it_in_its_records():
+    from spl_al.experiment.plan import encoder_read
+    from spl_al.experiment.round_steps import RoundId, _metrics_record
+
+    config = _default_config()
+    config["datasets"]["real_cls"]["embedding"]["encoder"].update(block=1)
+    assert encoder_read(config, "real_cls", "typiclust_ssl", seed=3) == 2  # seed s: encoder s - 1
+    assert encoder_read(config, "real_cls", "random", seed=3) is None
+    facts = {"task": "classification", "n_train": 770, "n_samples": 1100}
+    facts["synthetic_standin"] = True
+    which = RoundId("real_cls", "typiclust_ssl", 3, 1)
+    metrics = {"accuracy": 0.5, "per_level": {}}
+    record = _metrics_record(facts, {"encoder": 2}, which, 40, metrics, {})
+    assert record["encoder"] == 2
+    assert "encoder" not in _metrics_record(facts, {}, which, 40, metrics, {})

@@ -30,6 +30,7 @@ from spl_al.experiment.plan import (
     check_plan,
     dataset_method,
     dataset_runs,
+    encoder_read,
     experiments_of,
     method_specs,
     sweep_table_spec,

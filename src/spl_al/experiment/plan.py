@@ -23,7 +23,7 @@ from spl_al.cold_start import (
     start_name,
 )
 from spl_al.data.sources import check_entry, is_synthesised
-from spl_al.experiment.encoders import check_encoders
+from spl_al.experiment.encoders import check_encoders, encoder_of
 from spl_al.frameworks import (
     DEFAULT,
     EMBEDDING,
@@ -241,13 +241,15 @@ def method_specs(config: dict) -> dict[str, MethodSpec]:
 def budget_families(
     config: dict, dataset: str, specs=None, framework=DEFAULT
 ) -> dict[str, list[str]]:
-    """The two families of a dataset's budget experiment, method names in run order.
+    """The budget experiment's methods grouped by how they train, names in run order:
+    how its tables and curves group their rows (a claim's comparators are declared in
+    ``spl_al.report.claim_registry``, not taken from these groups).
 
-    ``paper``: the methods trained on observed images only, and DUIS (as the paper
-    compares: DUIS also trains on its variants). ``matched``: every method trained on
-    the variants, DUIS included (the matched twins ``syn_X`` of ``matched: true`` and
-    any variant-trained method named in ``methods``): a comparison in it varies the
-    acquisition alone. Empty lists without a budget experiment.
+    ``paper``: the methods trained on observed images only (as the paper trains its
+    baselines), and DUIS. ``matched``: every method trained on the variants, DUIS
+    included (the matched twins ``syn_X`` of ``matched: true`` and any variant-trained
+    method named in ``methods``): a comparison in it varies the acquisition alone.
+    Empty lists without a budget experiment.
     """
     specs = specs if specs is not None else method_specs(config)
     budget = framework_experiments(config["datasets"][dataset], framework).get("budget")
@@ -266,9 +268,10 @@ def experiments_of(config: dict, dataset: str, specs=None, framework=DEFAULT) ->
     """A dataset's experiments in ``framework`` as run: the budget experiment's
     ``methods`` hold the matched twins too (observed-only methods first, then the
     variant-trained ones, DUIS last), ``families`` names both families
-    (``budget_families``) and ``selection`` says how each method selects:
-    {method: {"strategy": ..., "features": ...}} (a claim names what a baseline
-    selected on from it, never from the method's name)."""
+    (``budget_families``) and ``selection`` says how each method selects and trains:
+    {method: {"strategy": ..., "features": ..., "use_variants": ...}} (the claims find
+    their declared families' members in it, ``spl_al.report.claim_registry``, never by
+    a method's name)."""
     experiments = framework_experiments(config["datasets"][dataset], framework)
     if "budget" not in experiments:
         return experiments
@@ -280,7 +283,11 @@ def experiments_of(config: dict, dataset: str, specs=None, framework=DEFAULT) ->
     if FULL_METHOD in methods:
         methods = [m for m in methods if m != FULL_METHOD] + [FULL_METHOD]
     selection = {
-        m: {"strategy": specs[m].strategy, "features": specs[m].features}
+        m: {
+            "strategy": specs[m].strategy,
+            "features": specs[m].features,
+            "use_variants": bool(specs[m].use_variants),
+        }
         for m in methods
         if m in specs
     }
@@ -575,13 +582,47 @@ def check_plan(config: dict) -> None:
         _check_batches(dataset, entry, max(runs.values(), default=0))
         _check_candidate_pools(config, dataset, runs, specs)
         embedding_seeds = [s for _m, s in dataset_runs(config, dataset, EMBEDDING)]
-        ssl_seeds = [
-            s
+        ssl_runs = [
+            (m, s)
             for m, s in dataset_runs(config, dataset)
-            if m in specs
-            and (
-                get_feature_space(specs[m].features).needs_encoder
-                or is_cold_start(start_of(config, dataset, m, specs))
-            )
+            if m in specs and reads_encoder(config, dataset, m, specs)
         ]
+        ssl_seeds = [s for _m, s in ssl_runs]
         check_encoders(dataset, entry, [*embedding_seeds, *ssl_seeds], embedding_seeds)
+        _check_independent_seeds(dataset, entry, ssl_runs)
+
+
+def reads_encoder(config: dict, dataset: str, method: str, specs=None) -> bool:
+    """Whether a supervised run of ``method`` reads the dataset's self-supervised
+    encoder: it selects on the embedding, or its round 0 is chosen on it (a cold start)."""
+    specs = specs if specs is not None else method_specs(config)
+    return get_feature_space(specs[method].features).needs_encoder or is_cold_start(
+        start_of(config, dataset, method, specs)
+    )
+
+
+def encoder_read(config: dict, dataset: str, method: str, *, seed: int, specs=None) -> int | None:
+    """The seed of the encoder a supervised run (``method``, ``seed``) reads, which its
+    records name (``encoder``), or None for a run that reads none."""
+    if not reads_encoder(config, dataset, method, specs):
+        return None
+    return encoder_of(config["datasets"][dataset], int(seed))
+
+
+def _check_independent_seeds(dataset: str, entry: dict, ssl_runs) -> None:
+    """The supervised framework counts its seeds as independent draws, so two seeds of
+    one method must not read the same encoder (a rerun draws the encoder again: seeds
+    sharing one are one draw of it); a ValueError naming ``block`` else."""
+    seen: dict[tuple[str, int], int] = {}
+    for method, seed in sorted(ssl_runs):
+        key = (method, encoder_of(entry, seed))
+        if key in seen:
+            block = f"datasets.{dataset}.embedding.encoder.block"
+            raise ValueError(
+                f"config key '{block}' makes supervised seeds {seen[key]} and {seed} of "
+                f"{method!r} read the same encoder (seed {key[1]}), but the supervised "
+                "framework counts seeds as independent draws; set block: 1 with one "
+                "encoder seed per run seed, or run the method in the embedding framework, "
+                "whose statistics count encoders."
+            )
+        seen[key] = seed

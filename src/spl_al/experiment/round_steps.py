@@ -147,6 +147,8 @@ def _metrics_record(facts, setup, which: RoundId, n_labeled, metrics, extra) -> 
     key = HEADLINE_METRICS[facts["task"]]
     ratio_of = setup.get("ratio_of", "train")
     levels = metrics.get("per_level", {})
+    if setup.get("encoder") is not None:  # the self-supervised encoder the run reads
+        extra = {**extra, "encoder": int(setup["encoder"])}
     return round_record(
         (which.dataset, which.method, which.seed, which.round),
         n_labeled=n_labeled,
@@ -178,11 +180,13 @@ def train_round(
     unlabeled pool for the next query (``score_pool``) with the model still in memory.
 
     ``setup`` holds ``train`` (``model``: arch and its parameters, ``fit``: a
-    TrainConfig) and ``method`` (MethodSpec fields). A method with ``use_variants``
-    trains on the observed image and the method's M variants of each labeled group,
-    all with the group's label or mask. Writes the weights, the metrics record that
-    ``spl_al.report`` aggregates (``out.record``: with the round's optimiser steps,
-    ``train_steps``, and the images they drew, ``images_seen``) and the scores.
+    TrainConfig), ``method`` (MethodSpec fields) and, for a run that reads the
+    dataset's self-supervised encoder, ``encoder``: its seed, which the record names.
+    A method with ``use_variants`` trains on the observed image and the method's M
+    variants of each labeled group, all with the group's label or mask. Writes the
+    weights, the metrics record that ``spl_al.report`` aggregates (``out.record``: with
+    the round's optimiser steps, ``train_steps``, and the images they drew,
+    ``images_seen``) and the scores.
 
     ``start`` (``RoundStart``): the training labels are the dataset's (the simulated
     oracle), or with ``start.labels_path`` the ones a person gave

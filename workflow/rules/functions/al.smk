@@ -93,11 +93,19 @@ def train_params(wildcards):
         config, wildcards.dataset, wildcards.method, METHODS
     ).as_dict()
     method.pop("params")
-    return {
+    setup = {
         "train": train_setup(config, wildcards.dataset),
         "method": method,
         "ratio_of": entry["al"].get("ratio_of", "train"),
     }
+    # the encoder the run reads (a cold start, or selecting on the embedding): its
+    # records name it
+    encoder = encoder_read(
+        config, wildcards.dataset, wildcards.method, seed=int(wildcards.seed), specs=METHODS
+    )
+    if encoder is not None:
+        setup["encoder"] = encoder
+    return setup
 
 
 def queried_after(wildcards):
