@@ -9,6 +9,7 @@ import numpy as np
 import pandas as pd
 import pytest
 import yaml
+from helpers.claim_selection import selection_of
 
 from spl_al.experiment.plan import budget_families, dataset_runs, experiments_of, method_specs
 from spl_al.frameworks import get_feature_space
@@ -173,21 +174,25 @@ def test_claims_over_query_rounds_in_both_families():
         "seeds": list(SEEDS),
         "rounds": 4,
     }
-    families = {
-        "paper": ["random", "margin", "duis"],
-        "matched": ["syn_random", "syn_margin", "syn_diversity", "duis"],
-    }
     cmp = comparisons(df, {"budget": budget}, {})
     stored = cmp.assign(span=cmp["span"].replace("", np.nan))  # as read back from CSV
-    out = claims(stored, families).set_index("claim_id")
-    # round 0 is never evidence: the every-budget claims count rounds 1-3 only
+    out = claims(stored, selection_of(budget["methods"])).set_index("claim_id")
+    # round 0 is never evidence: the every-budget claims count rounds 1-3 only;
+    # Syn+Diversity is DUIS's own ablation, no member of the matched family
     assert out.loc["duis_best_every_budget", "n_comparisons"] == 2 * 3
-    assert out.loc["duis_best_every_budget_matched", "n_comparisons"] == 3 * 3
+    assert out.loc["duis_best_every_budget_matched", "n_comparisons"] == 2 * 3
+    assert out.loc["duis_best_every_budget_matched", "methods"].split() == [
+        "duis",
+        "syn_random",
+        "syn_margin",
+    ]
     assert "rounds 1-3" in out.loc["duis_best_aubc_matched", "claim"]
-    assert "matched training" in out.loc["duis_best_aubc_matched", "claim"]
-    # DUIS is far above the paper's baselines, barely above Syn+Diversity
+    assert (
+        "matched training (against Syn+Random and Syn+Margin only)"
+        in (out.loc["duis_best_aubc_matched", "claim"])
+    )
+    # DUIS is far above the paper's baselines
     assert out.loc["duis_best_aubc", "verdict"] == "supported"
-    assert out.loc["duis_best_aubc_matched", "verdict"] != "supported"
     # each part of the decomposition is a claim named for what it tests
     assert out.loc["variant_training", "verdict"] == "supported"
     assert {p[0] for p in PARTS} <= set(out.index)
@@ -196,21 +201,86 @@ def test_claims_over_query_rounds_in_both_families():
     assert out.loc["inconsistency_over_diversity", "source"] == "paper"
     md = render_claims_markdown(out.reset_index())
     assert md.index("*The paper's claims*") < md.index("*Extensions*")
-    assert "only" not in out.loc["duis_best_aubc", "claim"]
-    # a run that keeps Margin in its matched form alone says whom "as the paper
-    # compares" was against
-    fewer = {**families, "paper": ["random", "duis"]}
-    out = claims(stored, fewer).set_index("claim_id")
+    # the run has two of the paper's five baselines: the sentence says which
     assert out.loc["duis_best_aubc", "claim"].endswith(
-        ", as the paper compares (against Random only)."
+        ", as the paper compares (against Random and Margin only)."
     )
-    assert "only" not in out.loc["duis_best_aubc_matched", "claim"]
+
+
+def test_an_added_baseline_never_enters_a_paper_claim():
+    """The hidden case of issue 68: Random, Margin, TypiClust and MaxHerding with their
+    matched twins, and DUIS, in the embedding framework."""
+    renamed = {"syn_diversity": "syn_typiclust", "margin": "typiclust"}
+    df = records().replace({"method": renamed})
+    extra = records(methods=["syn_margin", "margin"]).replace(
+        {"method": {"syn_margin": "syn_maxherding", "margin": "maxherding"}}
+    )
+    df = pd.concat([df, extra, records(methods=["margin"])], ignore_index=True)
+    methods = ["random", "margin", "typiclust", "maxherding"]
+    methods += ["syn_random", "syn_margin", "syn_typiclust", "syn_maxherding", "duis"]
+    budget = {"methods": methods, "seeds": list(SEEDS), "rounds": 4}
+    cmp = comparisons(df, {"budget": budget}, {})
+    out = claims(cmp, selection_of(methods), framework="embedding").set_index("claim_id")
+    paper = out.loc["duis_best_every_budget"]
+    assert paper["n_comparisons"] == 2 * 3  # Random and Margin at rounds 1-3
+    assert set(paper["methods"].split()) == {"duis", "random", "margin"}
+    assert paper["claim"].endswith("as the paper compares (against Random and Margin only).")
+    low = out.loc["duis_over_low_budget_matched"]
+    assert set(low["methods"].split()) == {"duis", "syn_typiclust", "syn_maxherding"}
+    assert low["n_comparisons"] == 2
+    assert "Syn+TypiClust and Syn+MaxHerding only, selecting on the frozen" in low["claim"]
+    assert not out["claim"].str.contains("strongest").any()
+    assert "duis_best_aubc" in out.index and "typiclust" not in out.loc["duis_best_aubc", "methods"]
+
+
+def test_low_budget_claim_tests_every_low_budget_twin_with_holm():
+    """One claim: DUIS's AUBC against every low-budget twin the run has, whatever its
+    name: Holm over them for "contradicted", each at 0.05 for "supported"."""
+    renamed = {"syn_margin": "syn_typiclust", "syn_random": "syn_probcover"}
+    df = records().replace({"method": renamed})
+    methods = ["random", "syn_probcover", "syn_typiclust", "syn_diversity", "duis"]
+    budget = {"methods": methods, "seeds": list(SEEDS), "rounds": 4}
+    selection = selection_of(methods)
+    cmp = comparisons(df, {"budget": budget}, {})
+    out = claims(cmp, selection).set_index("claim_id")
+    row = out.loc["duis_over_low_budget_matched"]
+    assert row["n_comparisons"] == 2 and row["source"] == "extension"
+    assert "each low-budget baseline, under matched training" in row["claim"]
+    # no Syn+MaxHerding in this run
+    assert "(against Syn+ProbCover and Syn+TypiClust only, selecting on" in row["claim"]
+    assert "rounds 1-3" in row["claim"] and row["rule"] == "5%"
+    # the verdict of the comparisons it rests on: DUIS above both at 5%
+    area = cmp[(cmp["point"] == "AUBC") & (cmp["method_a"] == "duis")]
+    both = area[area["method_b"].isin(["syn_typiclust", "syn_probcover"])]
+    expected = "supported" if (both["resolved"] & (both["direction"] > 0)).all() else None
+    assert expected is None or row["verdict"] == expected
+    # the selection says what a method is and selects on, whatever its name
+    on_embedding = {**selection, "syn_typiclust": {**selection["syn_typiclust"]}}
+    on_embedding["syn_typiclust"]["features"] = "embedding"
+    named = claims(cmp, on_embedding).set_index("claim_id")
+    embedding_words = get_feature_space("embedding").words
+    assert (
+        f"Syn+TypiClust (selecting on {embedding_words})"
+        in (named.loc["duis_over_low_budget_matched", "claim"])
+    )
+    not_low = {**selection, "syn_typiclust": {**selection["syn_typiclust"], "strategy": "margin"}}
+    swapped = claims(cmp, not_low).set_index("claim_id")
+    assert swapped.loc["duis_over_low_budget_matched", "methods"].split() == [
+        "duis",
+        "syn_probcover",
+    ]
+    # without a low-budget twin, no such claim
+    plain = claims(
+        comparisons(records(), {"budget": {**budget, "methods": list(OFFSET)}}, {}),
+        selection_of(list(OFFSET)),
+    )
+    assert "duis_over_low_budget_matched" not in set(plain["claim_id"])
 
 
 def test_small_n_never_says_supported():
     df = records(seeds=(1, 2, 3))
     budget = {"methods": ["random", "duis"], "seeds": [1, 2, 3], "rounds": 4}
-    out = claims(comparisons(df, {"budget": budget}, {}))
+    out = claims(comparisons(df, {"budget": budget}, {}), selection_of(["random", "duis"]))
     assert set(out["rule"]) == {"small-n"}
     assert not set(out["verdict"]) & {"supported", "contradicted"}
     assert "seeds agree (untested)" in set(out["verdict"])
@@ -231,56 +301,3 @@ def test_budget_curves_draw_each_family_in_its_own_panel(tmp_path):
     assert [t.get_text() for t in axes[1].get_legend().get_texts()][-1] == "DUIS"
     # one panel without a matched family
     assert len(curves_figure(df, methods=["random", "duis"]).get_axes()) == 1
-
-
-def test_duis_against_the_strongest_low_budget_baseline_under_matched_training():
-    """One claim: DUIS's AUBC against the low-budget twin (syn_typiclust, syn_probcover,
-    syn_maxherding) with the highest mean AUBC, a member of the matched family."""
-    renamed = {"syn_margin": "syn_typiclust", "syn_random": "syn_probcover"}
-    df = records().replace({"method": renamed})
-    budget = {
-        "methods": ["random", "syn_probcover", "syn_typiclust", "syn_diversity", "duis"],
-        "seeds": list(SEEDS),
-        "rounds": 4,
-    }
-    families = {
-        "paper": ["random", "duis"],
-        "matched": ["syn_probcover", "syn_typiclust", "syn_diversity", "duis"],
-    }
-    selection = {
-        "syn_probcover": {"strategy": "probcover", "features": "model"},
-        "syn_typiclust": {"strategy": "typiclust", "features": "model"},
-        "syn_diversity": {"strategy": "diversity", "features": "model"},
-    }
-    cmp = comparisons(df, {"budget": budget}, {})
-    out = claims(cmp, families, selection=selection).set_index("claim_id")
-    row = out.loc["duis_over_low_budget_matched"]
-    assert row["n_comparisons"] == 1 and row["source"] == "extension"
-    # syn_typiclust (offset 0.05) is stronger than syn_probcover (0.04)
-    assert "Syn+TypiClust" in row["claim"] and "matched training" in row["claim"]
-    assert "rounds 1-3" in row["claim"] and row["rule"] == "5%"
-    # the same verdict as the pairwise comparison it rests on
-    pair = cmp[(cmp["point"] == "AUBC") & cmp["method_b"].isin(["syn_typiclust", "duis"])]
-    pair = pair[pair["method_a"].isin(["syn_typiclust", "duis"])]
-    assert len(pair) == 1
-    expected = "supported" if pair["resolved"].iloc[0] else "inconclusive"
-    assert row["verdict"] == expected
-    assert f"(selecting on {get_feature_space('model').words})" in row["claim"]
-    # the selection says what a method is and selects on, whatever its name
-    on_embedding = {
-        **selection,
-        "syn_typiclust": {"strategy": "typiclust", "features": "embedding"},
-    }
-    named = claims(cmp, families, selection=on_embedding).set_index("claim_id")
-    embedding_words = get_feature_space("embedding").words
-    assert f"(selecting on {embedding_words})" in named.loc["duis_over_low_budget_matched", "claim"]
-    not_low = {**selection, "syn_typiclust": {"strategy": "margin", "features": "model"}}
-    swapped = claims(cmp, families, selection=not_low).set_index("claim_id")
-    assert "Syn+ProbCover" in swapped.loc["duis_over_low_budget_matched", "claim"]
-    # without a low-budget twin in the matched family, no such claim
-    plain = claims(
-        comparisons(records(), {"budget": {**budget, "methods": list(OFFSET)}}, {}),
-        {"paper": ["random", "margin", "duis"], "matched": ["syn_random", "duis"]},
-        selection={"syn_random": {"strategy": "random", "features": "model"}},
-    )
-    assert "duis_over_low_budget_matched" not in set(plain["claim_id"])

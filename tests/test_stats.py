@@ -8,6 +8,7 @@ import math
 import numpy as np
 import pandas as pd
 import pytest
+from helpers.claim_selection import selection_of
 from scipy.stats import t as student_t
 
 from spl_al.report import budget_table, records_frame, render_markdown, summary
@@ -312,6 +313,27 @@ def test_leader_bold_only_when_resolved_else_dagger():
     assert set(equal.loc[equal["method"] == "duis", "mark"]) == {""}
 
 
+def test_tables_and_decomposition_name_the_encoder_as_their_unit():
+    """Six seeds reading two encoders (three each): the leader test pairs the two
+    encoders' means, and the table says so in encoders, not seeds."""
+    df = frame_of({"random": 0.0, "duis": 0.002}, seeds=(1, 2, 3, 4, 5, 6))
+    df["encoder"] = (df["seed"] - 1) // 3
+    table = budget_table(df)
+    assert set(table["n_encoders"]) == {2} and set(table["n_expected"]) == {6}
+    md = render_markdown(table)
+    assert "6 seeds per cell, reading 2 encoders" in md
+    assert "a tie at this number of encoders" in md and "from n = 6 encoders" in md
+    plain = render_markdown(budget_table(frame_of({"random": 0.0, "duis": 0.002})))
+    assert "n = 3 seeds per cell." in plain and "encoder" not in plain
+    from spl_al.report.decomposition import METHODS, decomposition, render_decomposition_markdown
+
+    five = frame_of(dict.fromkeys(METHODS, 0.0), seeds=(1, 2, 3, 4, 5, 6))
+    five["encoder"] = (five["seed"] - 1) // 3
+    parts = decomposition(five, n_rounds=3)
+    assert set(parts["unit"]) == {"encoder"} and set(parts["n"]) == {2}
+    assert "n encoders (each an encoder's mean" in render_decomposition_markdown(parts)
+
+
 # --- claims ---------------------------------------------------------------------------
 
 EXPERIMENTS = {
@@ -339,7 +361,8 @@ def verdicts(duis_offset: float, jitter=JITTER) -> dict[str, str]:
     df = frame_of(offsets, jitter={"duis": jitter})
     cmp = comparisons(df, EXPERIMENTS, SWEEPS)
     assert "| Point |" in render_comparisons_markdown(cmp)
-    return dict(zip(claims(cmp)["claim_id"], claims(cmp)["verdict"], strict=True))
+    out = claims(cmp, selection_of(["random", "entropy", "syn_random", "syn_diversity", "duis"]))
+    return dict(zip(out["claim_id"], out["verdict"], strict=True))
 
 
 def test_claims_seeds_agree_when_better_on_every_seed_by_a_wide_margin():
@@ -381,7 +404,9 @@ def test_claims_seeds_against_when_worse():
 
 def test_claims_inconclusive_with_too_few_seeds_and_absent_when_not_run():
     df = frame_of({"random": 0.0, "duis": 0.10}, seeds=(1, 2))
-    out = claims(comparisons(df, {"budget": EXPERIMENTS["budget"]}, {}))
+    out = claims(
+        comparisons(df, {"budget": EXPERIMENTS["budget"]}, {}), selection_of(["random", "duis"])
+    )
     assert out["claim_id"].tolist() == ["duis_best_every_budget", "duis_best_aubc"]
     assert set(out["verdict"]) == {"inconclusive"}
     assert out["reason"].str.contains("too few seeds").all()
@@ -421,7 +446,7 @@ def budget_family(diffs, baseline: str = "random") -> pd.DataFrame:
 
 
 def budget_claim(diffs) -> pd.Series:
-    out = claims(budget_family(diffs))
+    out = claims(budget_family(diffs), selection_of(["random", "duis"]))
     assert out["claim_id"].tolist() == ["duis_best_every_budget"]
     return out.iloc[0]
 
@@ -478,13 +503,26 @@ def test_claim_seeds_needed_is_the_weakest_comparison():
     assert budget_claim([np.zeros(6), UP6])["seeds_needed"] == "-"
 
 
+def test_units_needed_respect_the_claims_holm_family():
+    # 15 comparisons, one far against the claim: Holm's first step asks p <= 0.05/15,
+    # which the sign-flip test reaches from 2/2^10 on: 10 units, not the level's 6
+    from spl_al.report.stats import units_for_family
+
+    assert (units_for_family(1), units_for_family(15), units_for_family(30)) == (6, 10, 11)
+    row = budget_claim([with_effect(-2.0, 0.1), *[UP6 * 100] * 14])
+    assert row["n_comparisons"] == 15 and row["seeds_needed"] == "10"
+    assert budget_claim([UP6 * 100] * 15)["seeds_needed"] == "6"  # all in favour: 0.05 each
+
+
 def test_claims_table_marks_the_rule_and_shows_seeds_needed():
-    six = claims(budget_family([UP6, -UP6 * 0.5]))
+    six = claims(budget_family([UP6, -UP6 * 0.5]), selection_of(["random", "duis"]))
     md = render_claims_markdown(six)
     assert "| Seeds needed (80% power) |" in md
     assert "**inconclusive**¹" in md and "¹ n >= 6 seeds (5% rule)" in md
     assert "intersection-union" in md and "Holm" in md and "small-n rule" not in md
-    three = render_claims_markdown(claims(budget_family([UP6[:3]])))
+    three = render_claims_markdown(
+        claims(budget_family([UP6[:3]]), selection_of(["random", "duis"]))
+    )
     assert "**seeds agree (untested)**²" in three and "² n < 6 seeds (small-n rule)" in three
     assert "¹ n >= 6" not in three
 
@@ -513,17 +551,36 @@ def test_not_worse_than_needs_seeds_for_the_distance_to_the_margin():
     assert row["seeds_needed"] == "-"
 
 
-def test_ncand_step_down_is_judged_with_holm_over_its_family():
-    # N_cand 40 < 80 < 160: the family is 160 vs 40 and the steps 80 vs 40, 160 vs 80.
-    # 160 vs 80 falls by ~2 pp on every seed (p = 0.031): alone it would contradict,
-    # Holm over the 3 comparisons does not let it.
-    pairs = [(160, 40, MIXED6), (80, 40, MIXED6), (160, 80, -UP6 * 100)]
+# Per-seed differences (pp) whose 95% interval lies inside the 1-pp margin (resolved
+# below zero: every seed negative), across it, and wholly below it.
+INSIDE = with_effect(-0.3, 0.2)  # [-0.51, -0.09]
+ACROSS = with_effect(-1.0, 1.0)  # [-2.05, +0.05]
+BELOW = with_effect(-3.0, 0.3)  # [-3.32, -2.68]
+
+
+def test_non_inferiority_is_one_rule_inside_across_and_below_the_margin():
+    verdict = {}
+    for name, d in (("inside", INSIDE), ("across", ACROSS), ("below", BELOW)):
+        alpha = claims(sweep_family("alpha", [(0.5, 0.25, d)])).iloc[0]
+        # N_cand: 160 resolved 2 pp above 40, the step 160 vs 80 as given
+        pairs = [(160, 40, UP6 * 100), (80, 40, UP6 * 100), (160, 80, d)]
+        ncand = claims(sweep_family("n_cand", pairs)).iloc[0]
+        assert ncand["claim_id"] == "ncand_grows_to_plateau" and ncand["n_comparisons"] == 3
+        verdict[name] = (alpha["verdict"], ncand["verdict"])
+    # a resolved fall inside the margin is still "not worse"
+    assert INSIDE.max() < 0 and verdict["inside"] == ("supported", "supported")
+    assert verdict["across"] == ("inconclusive", "inconclusive")
+    assert verdict["below"] == ("contradicted", "contradicted")
+
+
+def test_ncand_claim_needs_the_largest_above_the_smallest():
+    # every step inside the margin, but 160 is not resolved above 40: not supported
+    pairs = [(160, 40, MIXED6), (80, 40, MIXED6), (160, 80, INSIDE)]
     row = claims(sweep_family("n_cand", pairs)).iloc[0]
-    assert row["claim_id"] == "ncand_grows_to_plateau" and row["n_comparisons"] == 3
     assert row["verdict"] == "inconclusive" and row["rule"] == "5%"
-    assert "not past Holm" in row["reason"]
-    # with Holm's help removed (a family of one step) the same fall contradicts
-    alone = claims(sweep_family("n_cand", [(160, 80, -UP6 * 100)])).iloc[0]
+    assert "not resolved above the smallest" in row["reason"]
+    # the largest resolved below the smallest contradicts, as a family of one
+    alone = claims(sweep_family("n_cand", [(160, 40, -UP6 * 100)])).iloc[0]
     assert alone["verdict"] == "contradicted"
 
 

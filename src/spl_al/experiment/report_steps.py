@@ -122,7 +122,7 @@ def make_stats(
 ) -> None:
     """Paired statistics of a dataset: ``comparisons``, ``claims`` and the decomposition
     of DUIS − Random (CSV + Markdown) and the AUBC chart. ``experiments``: as run
-    (``spl_al.experiment.plan.experiments_of``: the budget's ``families``). ``out``:
+    (``spl_al.experiment.plan.experiments_of``: the budget's ``selection``). ``out``:
     paths by name (comparisons_csv, comparisons_md, claims_csv, claims_md,
     decomposition_csv, decomposition_md, aubc_png, aubc_pdf). ``claim_notes``: claim id
     -> sentence added to its reason (``spl_al.report.claims.encoder_claim_notes``).
@@ -147,8 +147,7 @@ def make_stats(
     in_paper = experiments.get("levels", {}).get("in_paper", True)
     verdicts = claims(
         stored,
-        budget_exp.get("families"),
-        selection=budget_exp.get("selection"),
+        budget_exp.get("selection"),
         levels_in_paper=in_paper,
         framework=report.framework_of(df),
         notes=claim_notes,

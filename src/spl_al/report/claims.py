@@ -1,14 +1,16 @@
 """The paper's claims and this project's extensions, checked against one dataset's
 paired comparisons.
 
+Which claims there are, and whom each compares DUIS with, is declared before any run
+in ``spl_al.report.claim_registry``: "as the paper compares" is DUIS against the
+paper's five baselines trained on observed images, "matched training" against their
+twins Syn+X trained on the variants like DUIS (the comparison varies the acquisition
+alone), and the low-budget baselines and DropQuery each have a claim of their own;
+the run's ``selection`` says which members of each family it has. No claim picks a
+comparator from the results, and each sentence names every comparator it tested.
 Claims about acquisition count the query rounds only (rounds >= 1: round 0 holds the
-same labels for every method). With the budget experiment's two families, each "DUIS
-is best" claim is judged twice: against the paper's baselines, which train on the
-observed images only ("as the paper compares"), and against their matched twins
-Syn+X, which train on the variants like DUIS ("matched training": the comparison
-varies the acquisition alone). The additive decomposition of DUIS − Random
-(``DECOMPOSITION``) gives one claim per part, named for what it tests. ``source``
-says whether the paper states a claim or this project adds it (``SOURCES``).
+same labels for every method). The additive decomposition of DUIS − Random
+(``DECOMPOSITION``) gives one claim per part, named for what it tests.
 
 Each claim is restated in one line and judged from the rows of
 ``spl_al.report.comparisons`` it needs, its *family* (so tables, comparisons and claims
@@ -33,23 +35,26 @@ seeds any comparison of the family pairs up (``rule`` column):
 - **inconclusive**: otherwise: too few seeds (n < 3), an interval that spans zero,
   seeds that disagree, or a comparison against that does not survive Holm.
 
-"Not worse than" (alpha = 0.5 vs its neighbours) is a non-inferiority claim: supported
-when every 95% interval of (0.5 minus the other) lies above -``MARGIN_PP`` percentage
-points (and n >= 3), contradicted when one is resolved below zero (as above). "Grows
-up to a plateau" (N_cand) is judged on the largest vs the smallest N_cand and each
-step between neighbouring values: supported when the largest is resolved above the
-smallest and no step is resolved downward; contradicted when the largest is resolved
-below the smallest or a step falls by more than ``MARGIN_PP`` (its whole interval
-below -MARGIN_PP), counted as above. A claim whose experiment is not configured for
-the dataset (or has no records) is absent.
+"Not worse than" is a non-inferiority claim with margin ``MARGIN_PP`` percentage
+points, one rule for every such comparison (``not_worse``): *not worse* when the 95%
+interval of (A minus B) lies above -MARGIN_PP, *worse* when it lies wholly below
+-MARGIN_PP, undecided otherwise (and with fewer than 3 units). "alpha = 0.5 is not
+worse than its neighbours" is supported when every comparison is not worse and
+contradicted when one is worse. "Grows up to a plateau" (N_cand) is judged on the
+largest vs the smallest N_cand and each step between neighbouring values: supported
+when the largest is resolved above the smallest and every step is not worse;
+contradicted when the largest is resolved below the smallest (Holm over the family) or
+a step is worse. A claim whose experiment is not configured for the dataset (or has
+no records) is absent.
 
 ``seeds_needed`` (per claim): ``stats.seeds_needed`` of the comparison the claim needs
-that needs the most seeds: the fewest seeds (>= 6) at which a paired t-test at 0.05
-has 80% power for the observed effect |mean d| / sd(d) of every comparison the claim
-needs (for non-inferiority, (mean d + MARGIN_PP) / sd(d); for N_cand, the largest vs
-the smallest). ">100" above the cap; "-" when a needed effect is zero or undefined
-(no effect to resolve, or fewer than 2 seeds), which tells "no effect" from "too few
-seeds".
+that needs the most units: the fewest units at which a paired t-test has 80% power for
+the observed effect |mean d| / sd(d), at 0.05 for a comparison in the claim's favour
+(at least 6 units) and at Holm's first step, 0.05 / m, for one against it (at least
+``stats.units_for_family(m)``: 11 for m = 30); for non-inferiority the effect is
+(mean d + MARGIN_PP) / sd(d), for N_cand the largest vs the smallest. ">100" above the
+cap; "-" when a needed effect is zero or undefined (no effect to resolve, or fewer
+than 2 units), which tells "no effect" from "too few units".
 """
 
 from __future__ import annotations
@@ -66,6 +71,18 @@ from spl_al.frameworks import (
     get_feature_space,
     get_framework,
 )
+from spl_al.report.claim_registry import (
+    CLAIM_SPECS,
+    CLAIMS,
+    DROPQUERY_FAMILY,
+    EXTENSION,
+    FIRST_BATCH_CLAIM,
+    LOW_BUDGET_FAMILY,
+    PAPER,
+    ClaimSpec,
+    Family,
+    source_of,
+)
 from spl_al.report.comparisons import comparison_text
 from spl_al.report.decomposition import PARTS
 from spl_al.report.display import ABLATION_LABELS, FULL_METHOD, METRIC_WORDS, method_label
@@ -78,6 +95,7 @@ from spl_al.report.stats import (
     rule_text,
     seeds_for_level,
     seeds_needed,
+    units_for_family,
 )
 
 MARGIN_PP = 1.0
@@ -89,35 +107,7 @@ AGREE, AGAINST = "seeds agree (untested)", "seeds against (untested)"
 comparisons every seed favours is not "supported", only agreed with."""
 VERDICTS = (SUPPORTED, CONTRADICTED, AGREE, AGAINST, INCONCLUSIVE)
 
-PAPER, EXTENSION = "paper", "extension"
-SOURCES = {
-    "duis_best_every_budget": PAPER,
-    "duis_best_every_budget_matched": EXTENSION,
-    "duis_best_aubc": EXTENSION,
-    "duis_best_aubc_matched": EXTENSION,
-    "duis_best_every_level": PAPER,
-    "duis_best_every_level_matched": EXTENSION,
-    "duis_over_low_budget_matched": EXTENSION,
-    "condition_over_dropout_inconsistency": EXTENSION,
-    "variant_training": EXTENSION,
-    "uncertainty_over_random": EXTENSION,
-    "diversity_over_uncertainty": PAPER,
-    "inconsistency_over_diversity": PAPER,
-    "diversity_over_random": PAPER,
-    "m_gt_1_beats_m_1": PAPER,
-    "ncand_grows_to_plateau": PAPER,
-    "alpha_half_not_worse": PAPER,
-}
-"""Where a claim comes from: ``paper`` (the paper states it: its budget table, per-level
-table, ablation ordering and sensitivity) or ``extension`` (this project asks it: the
-areas under the curve, the matched-training family, the parts of the decomposition
-the paper's ablation does not order)."""
-
 DECOMPOSITION = PARTS
-
-FIRST_BATCH_CLAIM = "typical_first_batch"
-"""Claim id prefix of the cold-start experiment's claims, one per strategy S
-(``typical_first_batch_typiclust``, ...): this project's extension."""
 
 COLUMNS = (
     "claim_id",
@@ -132,6 +122,7 @@ COLUMNS = (
     "min_n",
     "rule",
     "seeds_needed",
+    "methods",
     "unit",
     "source",
     "dataset",
@@ -182,13 +173,18 @@ def _against(rows: pd.DataFrame) -> pd.Series:
 
 
 def _seeds_needed(rows: pd.DataFrame, margin: float = 0.0) -> str:
-    """``stats.seeds_needed`` of the needed comparison that needs the most seeds, for a
-    table: effect (diff + margin) / sd_diff per row; "-" when one has none."""
+    """``stats.seeds_needed`` of the needed comparison that needs the most units, for a
+    table: effect (diff + margin) / sd_diff per row, at level 0.05 for a comparison in
+    the claim's favour (intersection-union: each at 0.05) and at Holm's first step,
+    0.05 / m over the claim's m comparisons, for one against it (so never fewer units
+    than ``stats.units_for_family(m)``); "-" when one has no effect."""
     shifted = rows["diff"].astype(float) + margin
     if margin > 0:
         shifted = shifted.where(shifted > 0, np.nan)  # inferior beyond the margin: none
+    holm_level = LEVEL / max(len(rows), 1)
     needed = [
-        seeds_needed(d, sd) for d, sd in zip(shifted, rows["sd_diff"].astype(float), strict=True)
+        seeds_needed(d, sd, level=LEVEL if d > 0 else holm_level)
+        for d, sd in zip(shifted, rows["sd_diff"].astype(float), strict=True)
     ]
     return format_seeds_needed(max(needed) if not np.isnan(needed).any() else np.nan)
 
@@ -245,6 +241,7 @@ def _claim(claim_id, text, experiment, rows, verdict, *, reason=None, focus=None
         "min_n": int(rows["n"].min()),
         "rule": _rule(rows),
         "seeds_needed": _seeds_needed(rows) if seeds is None else seeds,
+        "methods": " ".join(dict.fromkeys([*rows["method_a"], *rows["method_b"]])),
     }
 
 
@@ -260,78 +257,16 @@ def _all_beat(claim_id, text, experiment, rows) -> dict | None:
     return _claim(claim_id, text, experiment, rows, verdict, focus=focus)
 
 
-def _with_full(rows: pd.DataFrame, family: list[str] | None) -> pd.DataFrame:
-    """Rows of DUIS against a member of ``family`` (None: any method), DUIS as A."""
+def _with_full(rows: pd.DataFrame, members: list[str]) -> pd.DataFrame:
+    """Rows of DUIS against a method of ``members``, DUIS as A."""
+    other = rows["method_a"].where(rows["method_b"] == FULL_METHOD, rows["method_b"])
     full = (rows["method_a"] == FULL_METHOD) | (rows["method_b"] == FULL_METHOD)
-    if family is not None:
-        other = rows["method_a"].where(rows["method_b"] == FULL_METHOD, rows["method_b"])
-        full &= other.isin([m for m in family if m != FULL_METHOD])
-    return _oriented(rows[full], lambda r: FULL_METHOD)
+    return _oriented(rows[full & other.isin(members)], lambda r: FULL_METHOD)
 
 
-def _best_method_claims(cmp: pd.DataFrame, metric: str, families) -> list[dict]:
-    """DUIS best at every query round, in AUBC over the query rounds and on every MSPPP
-    split: against the paper's baselines and, when the run has them, against the
-    matched family (the same acquisitions trained on the variants)."""
-    budget = cmp[cmp["experiment"] == "budget"]
-    queried = budget[(budget["point"] != "AUBC") & (budget["round"].astype(float) >= 1)]
-    area = budget[budget["point"] == "AUBC"]
-    span = f" ({area['span'].iloc[0]})" if "span" in area and not area.empty else ""
-    levels = cmp[cmp["experiment"] == "levels"]
-    at = f" at round {int(levels['round'].iloc[0])}" if not levels.empty else ""
-    out = []
-    groups = [("", None, "")]
-    if families:
-        groups = [
-            ("", families.get("paper"), "as the paper compares" + _only(families)),
-            ("_matched", families.get("matched"), "matched training"),
-        ]
-    for suffix, family, against in groups:
-        if family is not None and len([m for m in family if m != FULL_METHOD]) == 0:
-            continue
-        tag = f", {against}" if families else ""
-        out += [
-            _all_beat(
-                f"duis_best_every_budget{suffix}",
-                f"DUIS has the highest {metric} at every query round{tag}.",
-                "budget",
-                _with_full(queried, family),
-            ),
-            _all_beat(
-                f"duis_best_aubc{suffix}",
-                f"DUIS has the largest AUBC over query rounds{span}{tag}.",
-                "budget",
-                _with_full(area, family),
-            ),
-            _all_beat(
-                f"duis_best_every_level{suffix}",
-                f"DUIS has the highest {metric} on every MSPPP split{at}{tag}.",
-                "levels",
-                _with_full(levels, family),
-            ),
-        ]
-    return out
-
-
-PAPER_BASELINES = ("random", "entropy", "margin", "coreset", "badge")
-"""The baselines the paper compares DUIS with (each trained on observed images only)."""
-
-
-def _only(families: dict) -> str:
-    """The suffix ' (against X and Y only)' when the run has paper baselines in their
-    matched form alone, so that "as the paper compares" covers fewer baselines than the
-    run does; '' otherwise."""
-    paper = [m for m in families.get("paper") or [] if m != FULL_METHOD]
-    matched = set(families.get("matched") or [])
-    if not paper or all(b in paper for b in PAPER_BASELINES if f"syn_{b}" in matched):
-        return ""
-    names = [method_label(m) for m in paper]
-    listed = names[0] if len(names) == 1 else f"{', '.join(names[:-1])} and {names[-1]}"
-    return f" (against {listed} only)"
-
-
-LOW_BUDGET = ("typiclust", "probcover", "maxherding")
-"""The low-budget baselines (scikit-activeml's, ``spl_al.strategies.skactiveml_adapter``)."""
+def _and(words: list[str]) -> str:
+    """'a', 'a and b', 'a, b and c'."""
+    return words[0] if len(words) == 1 else f"{', '.join(words[:-1])} and {words[-1]}"
 
 
 def feature_space(features: str, framework: str) -> str:
@@ -342,55 +277,72 @@ def feature_space(features: str, framework: str) -> str:
     return get_feature_space(space if space is not None else features).words
 
 
-def _low_budget_claim(cmp: pd.DataFrame, families, selection, framework: str) -> dict | None:
-    """DUIS's AUBC over the query rounds beats the strongest low-budget baseline trained
-    on the variants (a member of the matched family whose ``selection`` strategy is one
-    of ``LOW_BUDGET``, the one with the highest mean AUBC): acquisition against
-    acquisition at equal training; the claim names the feature space the baseline
-    selected on. None without one in the run."""
-    matched = (families or {}).get("matched") or []
-    selection = selection or {}
-    twins = [m for m in matched if selection.get(m, {}).get("strategy") in LOW_BUDGET]
-    area = cmp[(cmp["experiment"] == "budget") & (cmp["point"] == "AUBC")]
-    rows = _with_full(area, twins) if twins else area.iloc[0:0]
-    if rows.empty:
-        return None
-    best = rows.loc[[rows["mean_b"].astype(float).idxmax()]]
-    span = f" ({best['span'].iloc[0]})" if "span" in best and pd.notna(best["span"].iloc[0]) else ""
-    name = str(best["method_b"].iloc[0])
-    space = feature_space(selection[name]["features"], framework)
-    return _all_beat(
-        "duis_over_low_budget_matched",
-        f"DUIS has a larger AUBC over query rounds{span} than the strongest low-budget "
-        f"baseline, {method_label(name)} (selecting on {space}), under matched training.",
-        "budget",
-        best,
-    )
+def _against_whom(family: Family, members: list[str], selection: dict, framework: str) -> str:
+    """'(against Random and Margin only)': every comparator, "only" when the run lacks
+    some of the family's declared strategies; a low-budget family says what its
+    members selected on."""
+    names = [method_label(m) for m in members]
+    selecting = ""
+    if family is LOW_BUDGET_FAMILY:
+        spaces = [feature_space(selection[m].get("features", "model"), framework) for m in members]
+        if len(set(spaces)) == 1:
+            selecting = f", selecting on {spaces[0]}"
+        else:
+            names = [f"{n} (selecting on {w})" for n, w in zip(names, spaces, strict=True)]
+    only = " only" if family.missing(selection) else ""
+    return f"(against {_and(names)}{only}{selecting})"
 
 
-def _dropquery_claim(cmp: pd.DataFrame) -> dict | None:
-    """DUIS beats Syn+DropQuery on the AUBC over the query rounds: the paper's
-    inconsistency under photon conditions against the generic one under feature dropout,
-    both with a k-means diversity step and trained on the variants (this project's
-    extension). None without both in the budget experiment."""
-    area = cmp[(cmp["experiment"] == "budget") & (cmp["point"] == "AUBC")]
-    pair = _pair(area, "budget", FULL_METHOD, "syn_dropquery")
-    if pair.empty:
-        return None
-    span = f" ({pair['span'].iloc[0]})" if "span" in pair and pd.notna(pair["span"].iloc[0]) else ""
-    return _all_beat(
-        "condition_over_dropout_inconsistency",
-        f"DUIS beats Syn+DropQuery, AUBC over query rounds{span} (DUIS's inconsistency "
-        "over photon conditions against DropQuery's over feature dropout, matched "
-        "training).",
-        "budget",
-        pair,
-    )
+def _family_rows(cmp: pd.DataFrame, spec: ClaimSpec, members: list[str]) -> pd.DataFrame:
+    """DUIS against ``members`` at the claim's points: every query round, the AUBC over
+    the query rounds, or every MSPPP level."""
+    rows = cmp[cmp["experiment"] == spec.experiment]
+    if spec.points == "rounds":
+        rows = rows[(rows["point"] != "AUBC") & (rows["round"].astype(float) >= 1)]
+    elif spec.points == "aubc":
+        rows = rows[rows["point"] == "AUBC"]
+    return _with_full(rows, members)
 
 
-def _and(words: list[str]) -> str:
-    """'a', 'a and b', 'a, b and c'."""
-    return words[0] if len(words) == 1 else f"{', '.join(words[:-1])} and {words[-1]}"
+def _family_text(spec: ClaimSpec, rows: pd.DataFrame, metric: str, whom: str) -> str:
+    """The claim's sentence, naming every comparator (``whom``)."""
+    words = spec.family.words
+    if spec.points == "levels":
+        at = f" at round {int(rows['round'].iloc[0])}" if rows["round"].notna().any() else ""
+        return f"DUIS has the highest {metric} on every MSPPP split{at}, {words} {whom}."
+    if spec.points == "rounds":
+        return f"DUIS has the highest {metric} at every query round, {words} {whom}."
+    span = f" ({rows['span'].iloc[0]})" if "span" in rows and pd.notna(rows["span"].iloc[0]) else ""
+    if spec.family is LOW_BUDGET_FAMILY:
+        return (
+            f"DUIS has a larger AUBC over query rounds{span} than each low-budget "
+            f"baseline, {words} {whom}."
+        )
+    if spec.family is DROPQUERY_FAMILY:
+        return (
+            f"DUIS has a larger AUBC over query rounds{span} than DropQuery, {words} {whom} "
+            "(DUIS's inconsistency over photon conditions against DropQuery's over "
+            "feature dropout)."
+        )
+    return f"DUIS has the largest AUBC over query rounds{span}, {words} {whom}."
+
+
+def _family_claims(cmp: pd.DataFrame, metric: str, selection, framework: str) -> list[dict]:
+    """Every declared claim of DUIS against a family (``claim_registry.FAMILIES``),
+    judged on the members the run has; absent without one."""
+    out = []
+    for spec in CLAIMS:
+        if spec.family is None:
+            continue
+        members = spec.family.members(selection)
+        rows = _family_rows(cmp, spec, members) if members else cmp.iloc[0:0]
+        if rows.empty:
+            continue
+        tested = [m for m in members if m in set(rows["method_b"])]
+        whom = _against_whom(spec.family, tested, selection, framework)
+        text = _family_text(spec, rows, metric, whom)
+        out.append(_all_beat(spec.claim_id, text, spec.experiment, rows))
+    return out
 
 
 def _first_batch_claims(cmp: pd.DataFrame) -> list[dict]:
@@ -438,23 +390,25 @@ def _decomposition_claims(cmp: pd.DataFrame) -> list[dict]:
     (where the paper's ablation lacks Random and Syn+Margin, the parts it has)."""
     budget = cmp[(cmp["experiment"] == "budget") & (cmp["point"] == "AUBC")]
     names = set(budget["method_a"]) | set(budget["method_b"])
-    if all(a in names and b in names for _, a, b, _ in DECOMPOSITION):
+    if all(a in names and b in names for _, a, b, _ in DECOMPOSITION):  # every part's pair
         rows, where = budget, "AUBC over query rounds"
     else:
         rows = cmp[cmp["experiment"] == "ablation"]
         where = f"at round {int(rows['round'].iloc[0])}" if not rows.empty else ""
     experiment = str(rows["experiment"].iloc[0]) if not rows.empty else "ablation"
     labels = ABLATION_LABELS if experiment == "ablation" else None
-    parts = list(DECOMPOSITION)
+    ids = [part[0] for part in DECOMPOSITION]
     if experiment == "ablation":  # the paper's ablation: diversity against random
-        parts = [
-            ("diversity_over_random", "syn_diversity", "syn_random", "diversity over random"),
-            *[p for p in parts if p[0] == "inconsistency_over_diversity"],
-        ]
+        ids = ["diversity_over_random", "inconsistency_over_diversity"]
     out = []
-    for claim_id, a, b, what in parts:
+    for claim_id in ids:
+        spec = CLAIM_SPECS[claim_id]
+        a, b = spec.pair
         pair = _pair(rows, experiment, a, b)
-        text = f"{method_label(a, labels)} beats {method_label(b, labels)}, {where} ({what} helps)."
+        text = (
+            f"{method_label(a, labels)} beats {method_label(b, labels)}, {where} "
+            f"({spec.what} helps)."
+        )
         out.append(_all_beat(claim_id, text, experiment, pair))
     return out
 
@@ -476,6 +430,16 @@ def _m_claim(cmp: pd.DataFrame) -> dict | None:
     )
 
 
+def not_worse(rows: pd.DataFrame) -> tuple[pd.Series, pd.Series]:
+    """The non-inferiority rule, per oriented row (A claimed not worse than B by more
+    than ``MARGIN_PP``): (*not worse*: the 95% interval's lower bound lies above
+    -MARGIN_PP, *worse*: its upper bound lies below -MARGIN_PP), each needing
+    ``MIN_SEEDS`` paired units; a row that is neither is undecided."""
+    enough = rows["n"] >= MIN_SEEDS
+    low, high = rows["ci_low"].astype(float), rows["ci_high"].astype(float)
+    return enough & (low > -MARGIN_PP), enough & (high < -MARGIN_PP)
+
+
 def _alpha_claim(cmp: pd.DataFrame) -> dict | None:
     rows = _sweep_rows(cmp, "alpha")
     half = (rows["value_a"].astype(float) == 0.5) | (rows["value_b"].astype(float) == 0.5)
@@ -483,22 +447,27 @@ def _alpha_claim(cmp: pd.DataFrame) -> dict | None:
     if rows.empty:
         return None
     rows = _oriented(rows, lambda r: r["method_a"] if float(r["value_a"]) == 0.5 else r["method_b"])
-    against = _against(rows).any()
-    support = (rows["n"] >= MIN_SEEDS).all() and (rows["ci_low"] > -MARGIN_PP).all()
-    verdict = CONTRADICTED if against else SUPPORTED if support else INCONCLUSIVE
-    reason = None
+    fine, worse = not_worse(rows)
+    verdict = CONTRADICTED if worse.any() else SUPPORTED if fine.all() else INCONCLUSIVE
     if verdict == SUPPORTED:
         reason = f"every 95% interval lies above -{MARGIN_PP:g} pp (non-inferiority)"
-    elif verdict == INCONCLUSIVE and (rows["n"] >= MIN_SEEDS).all():
-        reason = f"an interval reaches below -{MARGIN_PP:g} pp"
+    elif verdict == CONTRADICTED:
+        reason = f"a 95% interval lies wholly below -{MARGIN_PP:g} pp"
+    elif (rows["n"] >= MIN_SEEDS).all():
+        reason = f"an interval reaches across -{MARGIN_PP:g} pp"
+    else:
+        reason = _reason(rows, INCONCLUSIVE)
+    focus = rows[worse].iloc[0] if worse.any() else None
     others = sorted({float(v) for v in rows["value_b"]})
     return _claim(
         "alpha_half_not_worse",
-        f"alpha = 0.5 is not worse than alpha = {', '.join(f'{v:g}' for v in others)}.",
+        f"alpha = 0.5 is not worse than alpha = {', '.join(f'{v:g}' for v in others)} "
+        f"(by more than {MARGIN_PP:g} pp).",
         "sensitivity",
         rows,
         verdict,
         reason=reason,
+        focus=focus,
         seeds=_seeds_needed(rows, margin=MARGIN_PP),
     )
 
@@ -527,15 +496,28 @@ def _ncand_claim(cmp: pd.DataFrame) -> dict | None:
     family = _ncand_family(rows, values)
     if family.empty:
         return None
-    end, against = family.iloc[0], _against(family)
-    fell = against & (family["ci_high"] < -MARGIN_PP)
-    if against.iloc[0] or fell.iloc[1:].any():
-        verdict, reason = CONTRADICTED, "the largest N_cand is worse, or a step falls"
-    elif end["resolved"] and end["direction"] > 0 and not _resolved_against(family).any():
-        verdict, reason = SUPPORTED, "largest above smallest, no step resolved downward"
-    elif _resolved_against(family).any() and int(family["n"].min()) >= MIN_SEEDS:
+    # the end (largest vs smallest) must grow; every step between neighbours must not
+    # fall, by the non-inferiority rule (``not_worse``)
+    end, steps = family.iloc[0], family.iloc[1:]
+    fine, fell = not_worse(steps)
+    end_against = bool(_against(family).iloc[0])
+    if end_against or fell.any():
+        verdict = CONTRADICTED
+        reason = (
+            "the largest N_cand is resolved below the smallest"
+            if end_against
+            else f"a step's 95% interval lies wholly below -{MARGIN_PP:g} pp"
+        )
+    elif end["resolved"] and end["direction"] > 0 and fine.all():
+        verdict = SUPPORTED
+        reason = f"largest above smallest, every step's interval above -{MARGIN_PP:g} pp"
+    elif int(family["n"].min()) >= MIN_SEEDS:
         verdict = INCONCLUSIVE
-        reason = f"a comparison against, not past Holm (or a step under {MARGIN_PP:g} pp)"
+        reason = (
+            f"a step's interval reaches across -{MARGIN_PP:g} pp"
+            if end["resolved"] and end["direction"] > 0
+            else "the largest N_cand is not resolved above the smallest"
+        )
     else:
         verdict, reason = INCONCLUSIVE, _reason(family, INCONCLUSIVE)
     return _claim(
@@ -552,9 +534,8 @@ def _ncand_claim(cmp: pd.DataFrame) -> dict | None:
 
 def claims(
     cmp: pd.DataFrame,
-    families: dict | None = None,
-    *,
     selection: dict | None = None,
+    *,
     levels_in_paper: bool = True,
     framework: str = DEFAULT.name,
     notes: dict | None = None,
@@ -562,26 +543,23 @@ def claims(
     """The paper's claims and this project's extensions judged on one dataset's
     comparisons frame (see module docstring).
 
-    ``families``: {"paper": [...], "matched": [...]}, the budget experiment's two
-    families (``spl_al.experiment.plan.budget_families``); None: one family, every
-    budget method. ``selection``: {method: {"strategy", "features"}} (the budget
-    experiment's, ``experiments_of``): which methods are low-budget baselines and what
-    they select on; None: no low-budget claim. ``levels_in_paper``: whether the paper
+    ``selection``: {method: {"strategy", "features", "use_variants"}}, the budget
+    experiment's methods (``spl_al.experiment.plan.experiments_of``): which of them
+    each declared family holds (``claim_registry.Family``); None: no claim of DUIS
+    against a family. ``levels_in_paper``: whether the paper
     reports a per-MSPPP-level split for this protocol (it does for its real and
     segmentation data, not for its synthetic classification). ``notes``: claim id -> a
     sentence appended to that claim's reason (``encoder_claim_notes``). Returns one row
     per claim whose comparisons exist, columns ``COLUMNS``; ``source`` is ``paper`` or
-    ``extension`` (``SOURCES``); ``unit`` what ``seeds_needed`` counts: seeds, or
-    encoders.
+    ``extension`` (``claim_registry``); ``methods`` the method keys the claim tested;
+    ``unit`` what ``seeds_needed`` counts: seeds, or encoders.
     """
     if cmp.empty:
         return pd.DataFrame(columns=list(COLUMNS))
     first = cmp.iloc[0]
     metric = METRIC_WORDS.get(first["metric"], first["metric"].lower())
     rows = [
-        *_best_method_claims(cmp, metric, families or {}),
-        _low_budget_claim(cmp, families, selection, framework),
-        _dropquery_claim(cmp),
+        *_family_claims(cmp, metric, selection, framework),
         *_decomposition_claims(cmp),
         *_first_batch_claims(cmp),
         _m_claim(cmp),
@@ -591,7 +569,7 @@ def claims(
     rows = [r for r in rows if r is not None]
     unit = str(first["unit"]) if "unit" in cmp and isinstance(first["unit"], str) else "seed"
     for row in rows:
-        row["source"] = SOURCES.get(row["claim_id"], EXTENSION)
+        row["source"] = source_of(row["claim_id"])
         row["unit"] = unit
         if row["claim_id"] == "duis_best_every_level" and not levels_in_paper:
             row["source"] = EXTENSION
@@ -633,24 +611,27 @@ def at_precision(frame: pd.DataFrame, precision: str) -> pd.DataFrame:
 _MARKS = {"5%": "¹", "small-n": "²"}
 
 
-def rule_notes() -> dict[str, str]:
-    """Rule name -> the verdict rule it stands for, in one sentence each."""
+def rule_notes(unit: str = "seed") -> dict[str, str]:
+    """Rule name -> the verdict rule it stands for, in one sentence each; ``unit``: what
+    n counts ("seed", or "encoder")."""
     n6 = seeds_for_level()
+    units = f"{unit}s"
     return {
         "5%": (
-            f"n >= {n6} seeds (5% rule): supported is an intersection-union test, every "
+            f"n >= {n6} {units} (5% rule): supported is an intersection-union test, every "
             "comparison the claim needs resolved in its favour at 5% (sign-flip p <= 0.05, "
             "95% interval excluding zero), each at 0.05 with no correction; contradicted: "
             "a comparison resolved against the claim survives Holm's step-down at 0.05 "
-            "over the claim's comparisons."
+            f"over the claim's m comparisons (possible from {units_for_family(2)} {units} "
+            f"for m = 2, {units_for_family(15)} for m = 15: 2/2^n <= 0.05/m)."
         ),
         "small-n": (
-            f"n < {n6} seeds (small-n rule): no test on so few seeds reaches 0.05, so a "
-            "comparison is resolved when every seed agrees in direction and its 95% "
+            f"n < {n6} {units} (small-n rule): no test on so few {units} reaches 0.05, so a "
+            f"comparison is resolved when every {unit} agrees in direction and its 95% "
             "interval excludes zero (p = 2/2^n, 0.25 at n = 3), weaker than 5% "
             f"significance and no test: '{AGREE}' when all are resolved in favour, "
             f"'{AGAINST}' when one is resolved against (no correction); fewer than "
-            f"{MIN_SEEDS} seeds never resolve."
+            f"{MIN_SEEDS} {units} never resolve."
         ),
     }
 
@@ -661,11 +642,14 @@ def seeds_note(unit: str = "seed") -> str:
     units = f"{unit}s"
     d = "d (a difference of encoders' means)" if unit == "encoder" else "d"
     return (
-        f"{units.capitalize()} needed (80% power): the fewest {units} (at least "
-        f"{seeds_for_level()}, the fewest at which the sign-flip test can reach 0.05) at "
-        f"which a two-sided paired t-test at 0.05 has 80% power for the observed effect "
-        f"mean(d)/sd(d) of {d}, for the comparison the claim needs that needs the most "
-        f"('not worse than': (mean(d) + {MARGIN_PP:g} pp)/sd(d)); >100: more than 100; -: a "
+        f"{units.capitalize()} needed (80% power): the fewest {units} at which a two-sided "
+        f"paired t-test has 80% power for the observed effect mean(d)/sd(d) of {d}, for "
+        f"the comparison the claim needs that needs the most: at 0.05 for a comparison "
+        f"in the claim's favour (at least {seeds_for_level()}, the fewest at which the "
+        f"sign-flip test can reach 0.05), at 0.05/m for one against it, Holm's first step "
+        f"over the claim's m comparisons (at least K with 2/2^K <= 0.05/m: "
+        f"{units_for_family(15)} for m = 15, {units_for_family(30)} for m = 30); 'not "
+        f"worse than': (mean(d) + {MARGIN_PP:g} pp)/sd(d); >100: more than 100; -: a "
         f"needed comparison shows no effect (or has fewer than 2 {units})."
     )
 
@@ -731,13 +715,14 @@ def render_claims_markdown(frame: pd.DataFrame, dataset: str | None = None) -> s
             verdict = f"**{row['verdict']}**{_MARKS.get(row['rule'], '')}"
             cells = [row["claim"], verdict, row["reason"], row["seeds_needed"], row["evidence"]]
             lines.append("| " + " | ".join(str(c).replace("|", r"\|") for c in cells) + " |")
-    notes = rule_notes()
+    notes = rule_notes(unit)
     for rule in [r for r in _MARKS if r in set(frame["rule"])]:
         lines += ["", f"{_MARKS[rule]} {notes[rule]}"]
     lines += [
         "",
-        f"Inconclusive: neither. Resolved: {rule_text()}. 'Not worse than' needs every 95% "
-        f"interval above -{MARGIN_PP:g} pp.",
+        f"Inconclusive: neither. Resolved: {rule_text(unit=unit)}. 'Not worse than' (by more than "
+        f"{MARGIN_PP:g} pp) is supported when every 95% interval lies above -{MARGIN_PP:g} pp "
+        f"and contradicted when one lies wholly below it.",
         "",
         seeds_note(unit),
     ]

@@ -264,8 +264,9 @@ def render_comparisons_markdown(frame: pd.DataFrame) -> str:
         f"**Paired comparisons on {first['dataset']}: {metric}, A − B in percentage points "
         f"{over}.**",
         "",
-        f"Rule: {rule_text()}. p: exact two-sided sign-flip test over all 2^n sign "
-        "vectors (p_min = 2/2^n); interval: 95% t-interval of the mean paired difference.",
+        f"Rule: {rule_text(unit='encoder' if by_encoder else 'seed')}. p: exact two-sided "
+        "sign-flip test over all 2^n sign vectors (p_min = 2/2^n); interval: 95% "
+        "t-interval of the mean paired difference.",
     ]
     if by_encoder:
         lines += [

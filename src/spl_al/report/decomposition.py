@@ -23,6 +23,7 @@ from spl_al.report.display import FULL_METHOD, format_ratio, method_label
 from spl_al.report.records import one_dataset
 from spl_al.report.stats import (
     aubc_per_seed,
+    clustered,
     paired_test,
     query_rounds,
     seed_matrix,
@@ -61,6 +62,7 @@ COLUMNS = (
     "dataset",
     "metric",
     "scale",
+    "unit",
 )
 
 
@@ -97,8 +99,10 @@ def decomposition(
     the AUBC over them, in percentage points (``metric_scale`` = 100).
 
     ``df``: a records frame. Returns one row per (point, part) with the columns
-    ``COLUMNS``; empty when one of ``METHODS`` has no records. At each point the four
-    parts' ``diff`` sum to the total's (same seeds, the sum telescopes).
+    ``COLUMNS``; empty when one of ``METHODS`` has no records. ``n`` counts the units
+    (``unit``): seeds, or encoders where every record names one (``stats.unit_means``).
+    At each point the four parts' ``diff`` sum to the total's (same units: the sum
+    telescopes).
     """
     d = one_dataset(df, dataset)
     d = d[d["method"].isin(METHODS)]
@@ -125,6 +129,7 @@ def decomposition(
     frame["dataset"] = d["dataset"].iloc[0]
     frame["metric"] = d["metric"].iloc[0]
     frame["scale"] = float(metric_scale)
+    frame["unit"] = "encoder" if clustered(values_of(d)) else "seed"
     return frame[list(COLUMNS)]
 
 
@@ -141,10 +146,12 @@ def render_decomposition_markdown(frame: pd.DataFrame) -> str:
             f"{', '.join(method_label(m) for m in METHODS)}.**\n"
         )
     first = frame.iloc[0]
+    unit = str(first["unit"]) if "unit" in frame and isinstance(first["unit"], str) else "seed"
+    over = " (each an encoder's mean over its run seeds)" if unit == "encoder" else ""
     lines = [
         f"**DUIS − Random on {first['dataset']} in four paired parts, percentage points: "
-        "mean difference [95% t-interval], exact sign-flip p, n seeds.** The parts of a "
-        "point sum to its total.",
+        f"mean difference [95% t-interval], exact sign-flip p, n {unit}s{over}.** The "
+        "parts of a point sum to its total.",
         "",
         "| Point | Part | A − B | diff [95% CI] (pp) | p | n |",
         "|:---|:---|:---|---:|---:|---:|",

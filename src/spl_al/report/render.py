@@ -142,14 +142,24 @@ def table_notes(frame: pd.DataFrame) -> list[str]:
         notes.append(f"Best mean {per} in bold.")
     else:
         marks = frame["mark"].astype(object).fillna("")
+        seeds = int(frame["n_expected"].iloc[0])
+        encoders = int(frame["n_encoders"].iloc[0]) if "n_encoders" in frame else 0
+        unit = "encoders" if encoders else "seeds"
+        n = (
+            f"{seeds} seeds per cell, reading {encoders} encoders (the mean and std are over "
+            f"the seeds; the tests pair the {encoders} encoders' means, the units a rerun "
+            "draws again)"
+            if encoders
+            else f"{seeds} seeds per cell"
+        )
         notes.append(
-            f"n = {int(frame['n_expected'].iloc[0])} seeds per cell. Bold: the highest mean "
-            f"{per}, resolved from the runner-up ({rule_text()})."
+            f"n = {n}. Bold: the highest mean {per}, resolved from the runner-up "
+            f"({rule_text(unit=unit[:-1])})."
         )
         if (marks == "tie").any():
             notes.append(
                 "†: the highest mean (every one, when several are equal), not resolved "
-                "from the runner-up: a tie at this number of seeds."
+                f"from the runner-up: a tie at this number of {unit}."
             )
     if frame["partial"].astype(bool).any() or (frame["n_seeds"] == 1).any():
         notes.append(

@@ -21,7 +21,8 @@ def _metric_name(metric: str) -> str:
 
 
 def aubc_figure(df: pd.DataFrame, methods: Sequence[str] | None = None, dataset=None):
-    """AUBC (percent) per method: every seed as a dot, the mean with its 95% t-interval.
+    """AUBC (percent) per method: every unit (a seed, or an encoder's mean over its run
+    seeds) as a dot, the mean with its 95% t-interval over the units.
 
     ``methods``: the budget methods in display order (default: every method of ``df``);
     each method's curve spans the same rounds as the others' (``df`` holds the rounds
@@ -35,7 +36,8 @@ def aubc_figure(df: pd.DataFrame, methods: Sequence[str] | None = None, dataset=
     ax = fig.add_subplot()
     units = unit_means(areas.rename(columns={"aubc": "value"}))
     for y, method in enumerate(methods):
-        values = 100 * areas.loc[areas["method"] == method, "aubc"].to_numpy()
+        # the dots are the units the interval is over: seeds, or encoders' means
+        values = 100 * units.loc[units["method"] == method, "value"].to_numpy()
         if values.size == 0:
             continue
         # the interval over the units of replication: seeds, or encoders' means
@@ -57,13 +59,14 @@ def aubc_figure(df: pd.DataFrame, methods: Sequence[str] | None = None, dataset=
     ax.invert_yaxis()
     n = int(areas["seed"].nunique()) if not areas.empty else 0
     k = int(units["seed"].nunique()) if not units.empty else 0
-    over = f"n = {n} seeds" if k == n else f"{k} encoders' means ({n} seeds)"
+    over = f"n = {n} seeds" if k == n else f"n = {k} encoders' means ({n} seeds)"
+    dots = "single seeds" if k == n else "the encoders' means"
     metric = _metric_name(d["metric"].iloc[0])
     standin = ", synthetic stand-in" if bool(d["synthetic_standin"].any()) else ""
     span = span_text(d[d["method"].isin(methods)])
     ax.set_title(
         f"{d['dataset'].iloc[0]}{standin}: area under the budget curve, {span}\n"
-        f"mean and 95% t-interval over {over}; small dots: single seeds",
+        f"mean and 95% t-interval over {over}; small dots: {dots}",
         fontsize=10,
     )
     ax.set_xlabel(f"AUBC: mean {metric} (%) over the labeling-ratio range")

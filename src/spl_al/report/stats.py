@@ -91,6 +91,13 @@ def seeds_for_level(level: float = LEVEL) -> int:
     return max(1, math.ceil(1 + math.log2(1 / level)))
 
 
+def units_for_family(m: int, level: float = LEVEL) -> int:
+    """Fewest units at which Holm over m comparisons can reject at all: the exact
+    sign-flip test's smallest p, 2/2^K, must reach Holm's first bar, level / m, so
+    K >= 1 + log2(m / level) (6 for one comparison, 10 for 15, 11 for 30)."""
+    return seeds_for_level(level / max(int(m), 1))
+
+
 def _signed_sums(d: np.ndarray) -> np.ndarray:
     """(2^k,) sums sum_i eps_i d_i over every sign vector eps of the k values ``d``."""
     sums = np.zeros(1)
@@ -226,16 +233,18 @@ def paired_test(a, b, level: float = LEVEL, *, p: float | None = None) -> dict:
     }
 
 
-def rule_text(level: float = LEVEL) -> str:
-    """The decision rule in one sentence (tables, claims and the README quote it)."""
+def rule_text(level: float = LEVEL, unit: str = "seed") -> str:
+    """The decision rule in one sentence (tables, claims and the README quote it);
+    ``unit``: what n counts, "seed" or "encoder" (``unit_means``)."""
     n6 = seeds_for_level(level)
+    units = f"{unit}s"
     return (
         f"a paired difference is resolved when its {100 * (1 - level):.0f}% t-interval "
-        f"excludes zero and its exact sign-flip p is significant: from n = {n6} seeds "
+        f"excludes zero and its exact sign-flip p is significant: from n = {n6} {units} "
         f"p <= {level:g} (significance at {100 * level:g}%); with {MIN_SEEDS} to {n6 - 1} "
-        f"seeds, where no test can reach {level:g}, p = 2/2^n (0.25 at n = 3), i.e. every "
-        f"seed agrees in direction, weaker than significance at {level:g}; fewer than "
-        f"{MIN_SEEDS} seeds never resolve"
+        f"{units}, where no test can reach {level:g}, p = 2/2^n (0.25 at n = 3), i.e. every "
+        f"{unit} agrees in direction, weaker than significance at {level:g}; fewer than "
+        f"{MIN_SEEDS} {units} never resolve"
     )
 
 

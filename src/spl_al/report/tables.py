@@ -3,7 +3,8 @@
 Every table function returns one row per cell, in the metric scale of the table
 (``metric_scale=100``: percent), with the columns
 
-    method, round, n_labeled, ratio, mean, std, n_seeds, n_expected, partial, mark,
+    method, round, n_labeled, ratio, mean, std, n_seeds, n_expected, n_encoders, partial,
+    mark,
     [level | parameter, value], row, col, row_pos, col_pos,
     table, dataset, metric, scale, synthetic_standin
 
@@ -11,6 +12,8 @@ Every table function returns one row per cell, in the metric scale of the table
 ``render_markdown`` / ``render_latex`` can draw the table from this frame alone (also
 after a round trip through CSV). ``n_expected`` is the number of distinct seeds of the
 table's methods; a cell with ``n_seeds < n_expected`` is ``partial`` and shows its n.
+``n_encoders`` is the number of self-supervised encoders those seeds read, where every
+record names one (the embedding framework: the leader tests count encoders), else 0.
 A method asked for but absent gets a row of empty cells (mean NaN, n_seeds 0).
 ``mark`` is "bold" on a column's (sensitivity: a parameter's) highest mean when its
 paired difference to the runner-up is resolved (``spl_al.report.stats``), "tie" on a
@@ -38,7 +41,7 @@ from spl_al.report.display import (
     unique_ratio_labels,
 )
 from spl_al.report.records import LEVELS, one_dataset, round_for_budget
-from spl_al.report.stats import leader_test, values_of
+from spl_al.report.stats import clustered, leader_test, values_of
 
 ROUND0_MARK = " (round 0)"
 """Suffix of the budget table's round-0 column: before any query."""
@@ -52,6 +55,7 @@ TABLE_COLUMNS = (
     "std",
     "n_seeds",
     "n_expected",
+    "n_encoders",
     "partial",
     "mark",
 )
@@ -103,6 +107,8 @@ def _finish(
     frame["std"] = frame["std"].astype(float) * scale
     frame["n_seeds"] = frame["n_seeds"].astype(int)
     frame["n_expected"] = n_expected
+    values = values_of(d[d["method"].isin(frame["method"])])
+    frame["n_encoders"] = int(values["encoder"].nunique()) if clustered(values) else 0
     frame["partial"] = (frame["n_seeds"] > 0) & (frame["n_seeds"] < n_expected)
     for col in ("round", "n_labeled"):
         frame[col] = pd.array(frame[col], dtype="Int64")
