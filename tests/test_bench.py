@@ -284,3 +284,70 @@ def test_the_draws_bench_names_a_reversed_claim_and_comparison(tmp_path, capsys)
     assert "duis_best" in out and "Opposite: budget AUBC duis - random" in out
     with pytest.raises(SystemExit, match="embedding framework has run"):
         draws.main([str(a), str(tmp_path / "none"), "--datasets", "real_cls"])
+
+
+def _framework_comparisons(folder: Path, rows: list[tuple]) -> None:
+    """A comparisons.csv in ``folder``/tables: rows (point, n_labeled, a, b, diff,
+    resolved, mean_a, mean_b, unit, n), half-width 1 point."""
+    import pandas as pd
+
+    tables = folder / "tables"
+    tables.mkdir(parents=True)
+    frame = pd.DataFrame(
+        [
+            {"experiment": "budget", "point": point, "parameter": "", "n_labeled": n_lab,
+             "round": 0 if n_lab == 20 else 1 if n_lab else None, "method_a": a,
+             "method_b": b, "diff": d, "ci_low": d - 1, "ci_high": d + 1, "resolved": res,
+             "direction": int(res) * (1 if d > 0 else -1), "mean_a": ma, "mean_b": mb,
+             "span": "rounds 1-3" if point == "AUBC" else "", "unit": unit, "n": n}
+            for point, n_lab, a, b, d, res, ma, mb, unit, n in rows
+        ]
+    )  # fmt: skip
+    frame.to_csv(tables / "comparisons.csv", index=False)
+
+
+def test_the_agreement_bench_sets_the_two_frameworks_side_by_side(tmp_path, capsys):
+    from spl_al.bench import agreement
+
+    emb = tmp_path / "emb"
+    _framework_comparisons(
+        emb / "real_cls" / "embedding",
+        [
+            ("AUBC", None, "duis", "random", 2.0, True, 60.0, 58.0, "encoder", 12),
+            ("AUBC", None, "duis", "syn_margin", -3.0, True, 60.0, 63.0, "encoder", 12),
+            ("AUBC", None, "syn_margin", "random", 5.0, True, 63.0, 58.0, "encoder", 12),
+            ("round 1 (3.6%)", 40, "duis", "random", 0.5, False, 0, 0, "encoder", 12),
+            ("round 0 (1.8%)", 20, "duis", "random", 0.0, False, 0, 0, "encoder", 12),
+            ("AUBC", None, "duis", "syn_typiclust", -6.0, True, 60.0, 66.0, "encoder", 12),
+        ],
+    )
+    sup = tmp_path / "sup"
+    _framework_comparisons(
+        sup / "real_cls",
+        [
+            # the other order of the same pair: the difference turns with it
+            ("AUBC", None, "random", "duis", -3.0, True, 57.0, 60.0, "seed", 24),
+            ("AUBC", None, "duis", "syn_margin", 1.5, True, 60.0, 58.5, "seed", 24),
+            ("AUBC", None, "syn_margin", "random", 1.5, False, 58.5, 57.0, "seed", 24),
+            ("round 1 (3.6%)", 40, "duis", "random", 0.7, False, 0, 0, "seed", 24),
+        ],
+    )
+    both, facts = agreement.compare(emb, sup, "real_cls")
+    assert facts["comparisons"] == 4 and facts["aubc_comparisons"] == 3  # no round 0
+    row = both[
+        (both["at"] == "AUBC") & (both["method_b"] == "random") & (both["method_a"] == "duis")
+    ]
+    assert row["diff_supervised"].iloc[0] == 3.0 and bool(row["signs_agree"].iloc[0])
+    assert sorted(both["resolution"]) == ["one only", "opposite", "same", "same"]
+    assert facts["signs_agree"] == 3 and facts["opposite"] == 1
+    assert facts["methods"] == ["duis", "random", "syn_margin"]  # typiclust: embedding only
+    assert facts["spearman"] == pytest.approx(0.5)  # ranks (2, 1, 3) against (3, 1, 2)
+    figures = tmp_path / "figures"
+    args = [str(emb), str(sup), "--datasets", "real_cls", "synth_cls"]
+    assert agreement.main([*args, "--out", str(tmp_path), "--figures", str(figures)]) == 0
+    out = capsys.readouterr().out
+    assert "Signs agree in 3 of 4" in out and "synth_cls: skipped" in out
+    assert "embedding over 12 encoders, supervised over 24 seeds" in out
+    assert (tmp_path / "agreement_real_cls.csv").is_file()
+    assert (figures / "agreement_real_cls.png").is_file()
+    assert agreement.main([str(emb), str(tmp_path / "none")]) == 2

@@ -11,6 +11,8 @@ rounds): validation accuracy of
   each probe strength ``--c`` (the one the config sets is chosen here);
 - the configured CNN trained as a supervised round trains it (observed images, and
   with the variants),
+- a logistic regression on the raw pixels (depth and validity downsampled to 16 x 16,
+  ``learnability.linear_reference``): what the probe would read without the encoder,
 
 mean ± std over random labeled sets (``--seeds``), drawn from the fit part. The
 encoder is trained on the fit part's frames alone (no validation or test image), with
@@ -97,9 +99,11 @@ def compare(dataset, entry: dict, *, seeds=SEEDS, c_values=C_VALUES, cnn=True, l
     rows = []
     for r in range(rounds):
         n = labeled_at(entry["al"], r)
-        row = {"n": n, "cnn": [], "cnn_variants": []}
+        row = {"n": n, "cnn": [], "cnn_variants": [], "pixels_linear": []}
         for seed in seeds:
             labeled = fit_idx[initial_labeled_set(len(fit_idx), n, seed)]
+            # what the encoder adds: a logistic regression on the raw (downsampled) pixels
+            row["pixels_linear"].append(linear_reference(dataset, labeled, held_out, seed))
             for c in c_values:
                 for variants in (False, True):
                     key = f"probe_c{c:g}" + ("_variants" if variants else "")
