@@ -196,7 +196,7 @@ def _fake_dataset(results: Path, name: str, metric: str, standin: bool) -> None:
     (figures / "curves.png").write_bytes(b"\x89PNG fake")
 
 
-def test_pages_generator_writes_every_dataset_and_keeps_the_readme_outside(tmp_path):
+def test_pages_generator_writes_every_dataset_and_keeps_the_outside(tmp_path):
     results = tmp_path / "results"
     _fake_dataset(results, "real_cls", "accuracy", True)
     _fake_dataset(results, "street_seg", "miou", False)
@@ -207,39 +207,30 @@ def test_pages_generator_writes_every_dataset_and_keeps_the_readme_outside(tmp_p
         "# Results\n\nhand-written reading\n\n<!-- results:start -->\nold\n<!-- results:end -->\n"
         "\n## Statistics\n\nhand-written rule\n"
     )
-    head = "# project\n\nintro [link](docs/results.md)\n\n"
-    tail = "\n## Licence\n\nMIT\n"
-    readme = tmp_path / "README.md"
-    readme.write_text(f"{head}<!-- results:start -->\nold block\n<!-- results:end -->\n{tail}")
 
-    assert results_blocks.main([str(results), "--docs", str(docs), "--readme", str(readme)]) == 0
-
-    text = readme.read_text()
-    assert text.startswith(head + "<!-- results:start -->\n")
-    assert text.endswith("<!-- results:end -->\n" + tail)
-    assert "old block" not in text
-    assert text.index("**real_cls**") < text.index("**street_seg**")
-    # one AUBC table of both datasets (the per-round tables are on the page)
-    assert "| DUIS | 40.0 [35.0, 45.0] | 40.0 [35.0, 45.0] |" in text
-    assert "1 supported, 1 inconclusive (of 2)" in text
-    assert "synthetic stand-in" in text
+    assert results_blocks.main([str(results), "--docs", str(docs)]) == 0
 
     page = (docs / "results.md").read_text()
     assert page.startswith("# Results\n\nhand-written reading\n\n<!-- results:start -->")
     assert page.endswith("<!-- results:end -->\n\n## Statistics\n\nhand-written rule\n")
+    assert "old" not in page
+    # one AUBC table of both datasets first, then each dataset's section
+    assert "| DUIS | 40.0 [35.0, 45.0] | 40.0 [35.0, 45.0] |" in page
+    assert page.index("| DUIS | 40.0") < page.index("## real_cls") < page.index("## street_seg")
     for name in ("real_cls", "street_seg"):
         for table in ("budget", "levels", "ablation", "sensitivity", "claims"):
             assert f"**{table} of {name}**" in page
         assert f"![{name}: budget curves, mean ± std over seeds](figures/{name}_budget.png)" in page
         assert (docs / "figures" / f"{name}_budget.png").read_bytes() == b"\x89PNG fake"
+        # the verdicts in a sentence, every claim's table folded under it
+        assert f"<summary>Every claim on {name} (2)" in page
+    assert "1 supported, 1 inconclusive (of 2)" in page
+    assert "synthetic stand-in" in page
     assert "1 of 1 paired comparisons are resolved" in page
 
 
 def test_pages_generator_refuses_a_folder_without_results(tmp_path, capsys):
-    assert (
-        results_blocks.main([str(tmp_path), "--docs", str(tmp_path), "--readme", str(tmp_path)])
-        == 1
-    )
+    assert results_blocks.main([str(tmp_path), "--docs", str(tmp_path)]) == 1
     assert "holds no dataset" in capsys.readouterr().err
 
 
@@ -252,17 +243,10 @@ def test_pages_generator_gives_a_second_run_its_own_page_and_figures(tmp_path):
     (docs / "decisive.md").write_text(
         "# 24 seeds\n\n<!-- results:start -->\n<!-- results:end -->\n"
     )
-    readme = tmp_path / "README.md"
-    default_block = "<!-- results:start -->\ndefault run\n<!-- results:end -->\n"
-    readme.write_text(f"{default_block}\n<!-- decisive:start -->\nold\n<!-- decisive:end -->\n")
 
-    argv = [str(results), "--docs", str(docs), "--readme", str(readme), "--page", "decisive"]
+    argv = [str(results), "--docs", str(docs), "--page", "decisive"]
     assert results_blocks.main(argv) == 0
 
-    text = readme.read_text()
-    assert text.startswith(default_block)  # the default run's block is not touched
-    assert "\nold\n" not in text and "| DUIS | 40.0 [35.0, 45.0] |" in text
-    assert "[docs/decisive.md](docs/decisive.md)" in text
     page = (docs / "decisive.md").read_text()
     assert "(figures/decisive_real_cls_budget.png)" in page
     assert (docs / "figures" / "decisive_real_cls_budget.png").read_bytes() == b"\x89PNG fake"
@@ -271,11 +255,6 @@ def test_pages_generator_gives_a_second_run_its_own_page_and_figures(tmp_path):
     # path of the machine that made the page
     assert "`results-decisive/real_cls/tables/comparisons.md`" in page
     assert str(tmp_path) not in page
-
-    # a README without the page's block is left as it was
-    readme.write_text(default_block)
-    assert results_blocks.main(argv) == 0
-    assert readme.read_text() == default_block
 
 
 def test_pages_generator_reads_the_embedding_framework_of_a_run(tmp_path):
@@ -286,31 +265,24 @@ def test_pages_generator_reads_the_embedding_framework_of_a_run(tmp_path):
     (docs / "embedding.md").write_text(
         "# Embedding\n\n<!-- results:start -->\n<!-- results:end -->\n"
     )
-    readme = tmp_path / "README.md"
-    readme.write_text("<!-- embedding:start -->\nold\n<!-- embedding:end -->\n")
-    argv = [str(results), "--docs", str(docs), "--readme", str(readme), "--page", "embedding"]
+    argv = [str(results), "--docs", str(docs), "--page", "embedding"]
     assert results_blocks.main([*argv, "--framework", "embedding"]) == 0
-    text = readme.read_text()
-    assert "**real_cls**" in text and "| DUIS | 40.0 [35.0, 45.0] |" in text
     page = (docs / "embedding.md").read_text()
+    assert "| DUIS | 40.0 [35.0, 45.0] |" in page
     assert "`results/real_cls/embedding/tables/comparisons.md`" in page
     assert (docs / "figures" / "embedding_real_cls_budget.png").exists()
 
 
-def test_pages_generator_writes_nothing_when_the_readme_lacks_its_block(tmp_path, capsys):
+def test_pages_generator_writes_nothing_when_the_page_lacks_its_block(tmp_path, capsys):
     results = tmp_path / "results"
     _fake_dataset(results, "real_cls", "accuracy", True)
     docs = tmp_path / "docs"
     docs.mkdir()
-    (docs / "results.md").write_text("<!-- results:start -->\nold\n<!-- results:end -->\n")
-    readme = tmp_path / "README.md"
-    readme.write_text("# no block\n")
+    (docs / "results.md").write_text("# no block\n")
 
-    assert results_blocks.main([str(results), "--docs", str(docs), "--readme", str(readme)]) == 1
+    assert results_blocks.main([str(results), "--docs", str(docs)]) == 1
     assert "<!-- results:start -->" in capsys.readouterr().err
-    assert (
-        docs / "results.md"
-    ).read_text() == "<!-- results:start -->\nold\n<!-- results:end -->\n"
+    assert (docs / "results.md").read_text() == "# no block\n"
     assert not (docs / "figures").exists()
 
 
@@ -345,7 +317,7 @@ def test_readme_table_shows_the_matched_family_first_and_the_aubc_range(tmp_path
         "*matched training (every method trained on the variants)*",
         "Syn+Random",
         "DUIS",
-        "*as the paper compares (baselines on observed images only)*",
+        "*baselines on observed images only (as the paper trains them)*",
         "Random",
     ]
     line = results_blocks.verdict_line(results_blocks.claims(results, "real_cls"))
@@ -355,10 +327,9 @@ def test_readme_table_shows_the_matched_family_first_and_the_aubc_range(tmp_path
     )
 
 
-def test_a_second_runs_readme_block_is_one_aubc_table_of_every_dataset(tmp_path):
-    """The decisive block stays short as datasets are added: one AUBC row per method,
-    a column per dataset with its range and seeds, "-" where a run lacks the method,
-    the matched family first; the budget columns stay on the page."""
+def test_a_pages_aubc_overview_is_one_table_of_every_dataset(tmp_path):
+    """A page opens with one AUBC row per method, a column per dataset with its range and
+    seeds, "-" where a run lacks the method, the matched family first."""
     results = tmp_path / "results-decisive"
     _fake_dataset(results, "real_cls", "accuracy", True)
     _fake_dataset(results, "street_seg", "miou", False)
@@ -381,19 +352,18 @@ def test_a_second_runs_readme_block_is_one_aubc_table_of_every_dataset(tmp_path)
         "| *matched training (every method trained on the variants)* | | |",
         "| Syn+Random | 60.0 [50.0, 70.0] | - |",
         "| DUIS | 40.0 [35.0, 45.0] | 40.0 [35.0, 45.0] |",
-        "| *as the paper compares (baselines on observed images only)* | | |",
+        "| *baselines on observed images only (as the paper trains them)* | | |",
         "| Random | 40.0 [35.0, 45.0] | 40.0 [35.0, 45.0] |",
     ]
-    block = results_blocks.readme_block(results, "decisive")
-    assert "\n".join(lines) in block and "Bold:" not in block and "31.0 ± 1.5" not in block
-    assert "**real_cls** (3 seeds; synthetic stand-in for real data). The paper's" in block
-    assert "**street_seg** (3 seeds). The paper's claims: 1 supported" in block
+    page = results_blocks.results_block(results, page="decisive")
+    assert "\n".join(lines) in page
+    assert results_blocks.overview_columns(page).keys() == {"real_cls", "street_seg"}
 
 
 def test_keep_absent_updates_one_dataset_of_a_shared_page(tmp_path):
     """A decisive run of one dataset, made in a folder of its own, rewrites that
-    dataset's section, README column and verdicts and keeps the others' as they were;
-    without --keep-absent the page holds only the folder's datasets."""
+    dataset's section and AUBC column and keeps the others' as they were; without
+    --keep-absent the page holds only the folder's datasets."""
     first, second = tmp_path / "first", tmp_path / "second"
     _fake_dataset(first, "real_cls", "accuracy", True)
     _fake_dataset(first, "synth_cls", "accuracy", False)
@@ -406,32 +376,77 @@ def test_keep_absent_updates_one_dataset_of_a_shared_page(tmp_path):
     docs = tmp_path / "docs"
     docs.mkdir()
     (docs / "decisive.md").write_text("# D\n\n<!-- results:start -->\n<!-- results:end -->\n")
-    readme = tmp_path / "README.md"
-    readme.write_text("intro\n\n<!-- decisive:start -->\n<!-- decisive:end -->\n\nend\n")
 
     def run(results, *extra):
-        argv = [str(results), "--docs", str(docs), "--readme", str(readme)]
+        argv = [str(results), "--docs", str(docs)]
         assert results_blocks.main([*argv, "--page", "decisive", *extra]) == 0
-        return (docs / "decisive.md").read_text(), readme.read_text()
+        return (docs / "decisive.md").read_text()
 
-    page, text = run(first)
+    page = run(first)
     synth_section = results_blocks.page_sections(page)["synth_cls"]
-    synth_verdicts = results_blocks.readme_chunks(text)["synth_cls"]
-    page, text = run(second, "--keep-absent")
+    page = run(second, "--keep-absent")
     assert "**budget of real_cls, 24**" in page and "**budget of real_cls**" not in page
     assert results_blocks.page_sections(page)["synth_cls"] == synth_section
     assert page.index("## real_cls") < page.index("## synth_cls")
     assert "--keep-absent` (tables of" in page and "; synth_cls kept from an earlier run)" in page
-    assert "| DUIS | 70.0 [65.0, 75.0] | 40.0 [35.0, 45.0] |" in text
-    assert results_blocks.readme_chunks(text)["synth_cls"] == synth_verdicts
-    assert text.startswith("intro\n\n") and text.endswith("<!-- decisive:end -->\n\nend\n")
+    assert "| DUIS | 70.0 [65.0, 75.0] | 40.0 [35.0, 45.0] |" in page
 
-    page, text = run(second)
-    assert "## synth_cls" not in page and "synth_cls" not in text
+    page = run(second)
+    assert "## synth_cls" not in page and "synth_cls" not in page
     # --drop: a dataset such a run no longer makes loses its earlier part, others keep theirs
     run(first)
     _fake_dataset(first, "street_seg", "miou", False)
     run(first)
-    page, text = run(second, "--keep-absent", "--drop", "synth_cls")
-    assert "## synth_cls" not in page and "synth_cls" not in text
-    assert "## street_seg" in page and "**street_seg**" in text
+    page = run(second, "--keep-absent", "--drop", "synth_cls")
+    assert "## synth_cls" not in page and "synth_cls" not in page
+    assert "## street_seg" in page and "street_seg (mIoU" in page
+
+
+def _fake_claims(tables: Path, unit: str, n: int, rows: list[tuple]) -> None:
+    """claims.csv with rows (claim_id, verdict, effect_pair, effect, low, high, n_comparisons)."""
+    _write_csv(
+        tables / "claims.csv",
+        [
+            dict(claim_id=cid, claim="...", verdict=verdict, effect_pair=pair, effect=d,
+                 effect_low=lo, effect_high=hi, n_comparisons=m, min_n=n, unit=unit)
+            for cid, verdict, pair, d, lo, hi, m in rows
+        ],
+    )  # fmt: skip
+
+
+def test_the_readme_answer_is_one_table_of_both_frameworks(tmp_path, capsys):
+    from spl_al.docs import answer
+
+    emb, sup = tmp_path / "results", tmp_path / "results-decisive"
+    _fake_claims(
+        emb / "real_cls" / "embedding" / "tables",
+        "encoder",
+        12,
+        [
+            ("duis_best_aubc", "contradicted", "duis - margin", -1.1, -1.7, -0.5, 5),
+            ("variant_training", "supported", "syn_random - random", 1.0, 0.4, 1.6, 1),
+        ],
+    )
+    _fake_claims(
+        sup / "real_cls" / "tables",
+        "seed",
+        24,
+        [("duis_best_aubc", "supported", "duis - random", 5.6, 3.4, 7.8, 1)],
+    )
+    readme = tmp_path / "README.md"
+    readme.write_text("# x\n\n<!-- answer:start -->\nold\n<!-- answer:end -->\n\nrest\n")
+    assert answer.main([str(emb), str(sup), "--readme", str(readme)]) == 0
+    text = readme.read_text()
+    assert text.startswith("# x\n\n<!-- answer:start -->\n") and text.endswith("\n\nrest\n")
+    assert (
+        "| Question | embedding: real_cls, 12 encoders | supervised: real_cls, 24 seeds |" in text
+    )
+    row = next(line for line in text.split("\n") if "as the paper compares" in line)
+    assert "**contradicted**: −1.1 [−1.7, −0.5] vs Margin" in row
+    assert "**supported**: +5.6 [+3.4, +7.8] |" in row  # one comparator: not named
+    assert "training on the variants help" in text and "| - |" in text
+    assert "low-budget" not in text  # a question no run answers has no row
+    # nothing to read: one sentence, the README as it was
+    assert answer.main([str(tmp_path / "a"), str(tmp_path / "b"), "--readme", str(readme)]) == 1
+    assert "holds claims of real_cls or synth_cls" in capsys.readouterr().err
+    assert readme.read_text() == text

@@ -291,7 +291,7 @@ def test_budget_curves_draw_each_family_in_its_own_panel(tmp_path):
 
     df = records()
     panels = {
-        "as the paper compares": ["random", "margin", "duis"],
+        "baselines on observed images": ["random", "margin", "duis"],
         "matched training": ["syn_random", "syn_margin", "syn_diversity", "duis"],
     }
     fig = curves_figure(df, panels=panels)

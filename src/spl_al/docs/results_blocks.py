@@ -1,27 +1,23 @@
-"""docs/results.md and the README's results block from a results folder.
+"""The docs pages' generated results from a results folder.
 
 Reads what ``snakemake all`` writes per dataset under ``RESULTS/{dataset}/tables``
 (budget, levels, ablation, sensitivity, claims and comparisons as CSV and Markdown,
 summary.json, robustness_diff.csv), copies the key figures into docs/figures/ as
-``{dataset}_{name}.png`` and rewrites two generated blocks:
-
-- docs/results.md between ``<!-- results:start -->`` and ``<!-- results:end -->``: every
-  table of every dataset, the area under the budget curve, the claims' verdicts, the
-  resolved paired comparisons and the figures;
-- README.md between the same markers: one compact table per dataset (budget columns and
-  AUBC) with its claims' verdicts.
+``{dataset}_{name}.png`` and rewrites docs/results.md between ``<!-- results:start -->``
+and ``<!-- results:end -->``: one AUBC table of every dataset (``aubc_overview``), then
+per dataset every table, the area under the budget curve, the claims' verdicts (each
+claim's reason and evidence folded), the resolved paired comparisons and the figures.
 
 A second run gets its own page: ``--page decisive`` writes docs/decisive.md's
-``results`` block, the README's ``decisive`` block (when the README has one) and its
-figures as ``decisive_{dataset}_{name}.png``, so the default run's stay as they are.
-Its README block is shorter: one table of every dataset's AUBC per method (the budget
-columns are on its page), then each dataset's verdicts.
+``results`` block and its figures as ``decisive_{dataset}_{name}.png``, so the default
+run's stay as they are. The README holds no results of its own but the answer table
+(``spl_al.docs.answer``), and links these pages.
 
 Text outside the markers (the hand-written reading of a run, the statistics section)
 is left untouched. With ``--keep-absent`` the datasets the folder does not hold keep
-what the blocks said of them (their page section, README lines and AUBC column), so
-runs of one dataset each, made in different folders or on different days, share a page.
-Run it from the repository root:
+what the block said of them (their section and AUBC column), so runs of one dataset
+each, made in different folders or on different days, share a page. Run it from the
+repository root:
 
     python -m spl_al.docs.results_blocks results/
 """
@@ -42,7 +38,7 @@ from pathlib import Path
 import yaml
 
 from spl_al.atomic import atomic_write_text
-from spl_al.docs.markers import block, markers, replace_block
+from spl_al.docs.markers import block, replace_block
 from spl_al.frameworks import DEFAULT, EMBEDDING, framework_names, get_framework
 from spl_al.layout import figure_file, table_file
 from spl_al.report.claims import AGAINST, CONTRADICTED, SUPPORTED, VERDICTS
@@ -118,30 +114,21 @@ def page_sections(block: str) -> dict[str, str]:
     return _named_chunks(block, lambda line: line[3:].strip() if line.startswith("## ") else None)
 
 
-def _readme_opens(line: str) -> str | None:
-    if line.startswith(("Bold:", "The rule behind", "**Area")):
-        return ""
-    if line.startswith("**") and "**" in line[2:]:
-        name = line[2 : line.index("**", 2)]
-        return "" if " " in name else name
-    return None
-
-
-def readme_chunks(block: str) -> dict[str, str]:
-    """{dataset: its lines} of a generated README block: each paragraph or table that
-    starts with ``**dataset**`` (up to the next one, the legend or the end)."""
-    return _named_chunks(block, _readme_opens)
-
-
 Column = tuple[str, dict[str, str], dict[str, str]]
 """One dataset's column of an AUBC overview: (header, {row label: cell}, {row label:
 family key})."""
 
 
 def overview_columns(block: str) -> dict[str, Column]:
-    """{dataset: its column} of the AUBC overview table in a second run's README block."""
-    lines = [line for line in block.split("\n") if line.startswith("| ")]
-    if not lines or not lines[0].startswith("| Method |"):
+    """{dataset: its column} of the AUBC overview table of a generated page block."""
+    lines = []
+    for line in block.split("\n"):  # the contiguous table that starts "| Method |"
+        if line.startswith("| Method |") or (lines and line.startswith("|")):
+            lines.append(line)
+        elif lines:
+            break
+    lines = [line for line in lines if line.startswith("| ")]  # the rule line goes
+    if not lines:
         return {}
     headers = [c.strip() for c in lines[0].strip("|").split("|")][1:]
     names = [h.split(" (")[0] for h in headers]
@@ -212,7 +199,7 @@ def _families(summary: dict, methods: list[str]) -> list[tuple[str, list[str]]]:
     rest = [m for m in methods if m not in matched and m not in paper]
     return [
         ("matched training (every method trained on the variants)", matched),
-        ("as the paper compares (baselines on observed images only)", paper + rest),
+        ("baselines on observed images only (as the paper trains them)", paper + rest),
     ]
 
 
@@ -335,7 +322,7 @@ def aubc_overview(results: Path, kept: dict[str, Column] | None = None) -> list[
     ]
     headings = {
         "matched": "matched training (every method trained on the variants)",
-        "paper": "as the paper compares (baselines on observed images only)",
+        "paper": "baselines on observed images only (as the paper trains them)",
     }
     shown: set[str] = set()
     for key in ("matched", "paper"):
@@ -349,41 +336,6 @@ def aubc_overview(results: Path, kept: dict[str, Column] | None = None) -> list[
             lines.append(f"| {row} | " + " | ".join(cells) + " |")
         shown.update(family)
     return lines
-
-
-def readme_block(
-    results: Path,
-    page: str = BLOCK,
-    earlier: str | None = None,
-    *,
-    framework: str = DEFAULT.name,
-    drop: frozenset = frozenset(),
-) -> str:
-    """The README's compact results of a run (``page``): one AUBC table of every dataset
-    (``aubc_overview``), then each dataset's verdicts; the per-round tables are on
-    docs/{page}.md. ``earlier``: the block as it was, whose datasets the folder lacks
-    are kept (``--keep-absent``), but those in ``drop``."""
-    present = datasets(results)
-    gone = set(present) | set(drop)
-    chunks = {d: c for d, c in readme_chunks(earlier or "").items() if d not in gone}
-    lines = [_generated_by(page, kept=list(chunks), on_page=False, framework=framework), ""]
-    parts: dict[str, list[str]] = {name: [chunk, ""] for name, chunk in chunks.items()}
-    kept = {d: c for d, c in overview_columns(earlier or "").items() if d not in gone}
-    lines += ["**Area under the budget curve over the query rounds** (%) [95% CI]:", ""]
-    lines += [*aubc_overview(results, kept), ""]
-    for dataset in present:
-        budget = read_rows(_table(results, dataset, "budget.csv"))
-        about = _seeds(_summary(results, dataset), budget)
-        if _is_standin(budget):
-            about += "; synthetic stand-in for real data"
-        text = verdict_line(claims(results, dataset))
-        parts[dataset] = [f"**{dataset}** ({about}). {text}", ""]
-    for dataset in _in_order(parts):
-        lines += parts[dataset]
-    rule = "[docs/results.md](docs/results.md#statistics-how-sure)"
-    legend = f"The rule behind each verdict: {rule}."
-    lines.append(f"{legend} Every table, figure and claim: [docs/{page}.md](docs/{page}.md).")
-    return "\n".join(lines)
 
 
 def _md_table(results: Path, dataset: str, name: str) -> str | None:
@@ -483,11 +435,11 @@ def copy_figures(
 
 
 def _generated_by(
-    page: str, *, kept: list[str], on_page: bool, stamp: str = "", framework: str = DEFAULT.name
+    page: str, *, kept: list[str], stamp: str = "", framework: str = DEFAULT.name
 ) -> str:
-    """The comment line that opens a generated block (``on_page``: a docs page's, whose
-    text outside the markers is hand-written): the command that wrote it and, with
-    ``--keep-absent``, the datasets kept from the block before."""
+    """The comment line that opens a page's generated block (the text outside the
+    markers is hand-written): the command that wrote it and, with ``--keep-absent``,
+    the datasets kept from the block before."""
     option = ("" if page == BLOCK else f" --page {page}") + (" --keep-absent" if kept else "")
     option += "" if framework == DEFAULT.name else f" --framework {framework}"
     if kept:
@@ -495,7 +447,7 @@ def _generated_by(
         stamp += f"{', '.join(_in_order(kept))} kept from an earlier run)"
     return (
         f"<!-- generated by `{COMMAND} RESULTS{option}`{stamp}: edit the generator"
-        f"{' or the text outside the markers' if on_page else ''}, not this block -->"
+        " or the text outside the markers, not this block -->"
     )
 
 
@@ -510,17 +462,19 @@ def results_block(
     drop: frozenset = frozenset(),
 ) -> str:
     """docs/{page}.md's generated part: every dataset's tables, verdicts and figures.
-    ``earlier``: the block as it was, whose datasets the folder lacks keep their
-    sections (``--keep-absent``), but those in ``drop``."""
+    It opens with one AUBC table of every dataset (``aubc_overview``); each dataset's
+    claims table is folded under its verdicts. ``earlier``: the block as it was, whose
+    datasets the folder lacks keep their sections and AUBC columns
+    (``--keep-absent``), but those in ``drop``."""
     figures = figures or {}
     stamp = ""
     stamps = [p.stat().st_mtime for p in results.glob(table_file("*", "summary.json"))]
     if stamps:
         stamp = datetime.fromtimestamp(max(stamps), tz=UTC).strftime(" (tables of %Y-%m-%d)")
     present = datasets(results)
-    kept = {
-        d: s for d, s in page_sections(earlier or "").items() if d not in present and d not in drop
-    }
+    gone = set(present) | set(drop)
+    kept = {d: s for d, s in page_sections(earlier or "").items() if d not in gone}
+    columns = {d: c for d, c in overview_columns(earlier or "").items() if d not in gone}
     sections: dict[str, list[str]] = {d: [s, ""] for d, s in kept.items()}
     for dataset in present:
         summary = _summary(results, dataset)
@@ -550,7 +504,12 @@ def results_block(
             lines += [f"### {dataset}: claims", "", verdict_line(rows), ""]
             table = _md_table(results, dataset, "claims")
             if table:
-                lines += [table, ""]
+                summary_line = (
+                    f"Every claim on {dataset} ({len(rows)}): its verdict, reason, units "
+                    "needed and evidence"
+                )
+                lines += ["<details>", f"<summary>{summary_line}</summary>", "", table, ""]
+                lines += ["</details>", ""]
         comparisons = _resolved_comparisons(results, dataset)
         robustness = _robustness(results, dataset)
         if comparisons or robustness:
@@ -558,7 +517,11 @@ def results_block(
             if robustness:
                 lines += [*robustness, ""]
     lines = [
-        _generated_by(page, kept=list(kept), on_page=True, stamp=stamp, framework=framework),
+        _generated_by(page, kept=list(kept), stamp=stamp, framework=framework),
+        "",
+        "**Area under the budget curve over the query rounds** (%) [95% CI]:",
+        "",
+        *aubc_overview(results, columns),
         "",
     ]
     for dataset in _in_order(sections):
@@ -626,33 +589,27 @@ def framework_view(results: Path, framework=EMBEDDING):
 def update(
     results: Path,
     docs: Path = Path("docs"),
-    readme: Path = Path("README.md"),
     *,
     page: str = BLOCK,
     keep_absent: bool = False,
     framework: str = DEFAULT.name,
     drop=(),
 ) -> list[Path]:
-    """Copy the figures, rewrite docs/{page}.md's generated block and the README's block
-    named ``page`` (the README is left alone when it has no such block, unless ``page``
-    is the default run's ``results``), from the run's ``framework`` outputs
-    (``framework_view``). With ``keep_absent`` the datasets the folder lacks keep what
-    both blocks said of them, but those ``drop`` names (a dataset such a run no longer
-    makes). Returns the files written."""
+    """Copy the figures and rewrite docs/{page}.md's generated block from the run's
+    ``framework`` outputs (``framework_view``). With ``keep_absent`` the datasets the
+    folder lacks keep what the block said of them, but those ``drop`` names (a dataset
+    such a run no longer makes). Returns the files written."""
     if framework not in framework_names():
         raise ValueError(
             f"--framework must be one of {', '.join(framework_names())}, got {framework!r}."
         )
-    docs, readme = Path(docs), Path(readme)
+    docs = Path(docs)
     drop = frozenset(drop)
     with framework_view(results, framework) as results:
         if not datasets(results):
             raise ValueError(f"{results} holds no dataset with tables/budget.csv.")
         if not page.replace("-", "").replace("_", "").isalnum():
             raise ValueError(f"--page must be a plain name like 'decisive', got {page!r}.")
-
-        # Both texts are made before anything is written: a README without its block
-        # leaves every file as it was.
         path = docs / f"{page}.md"
         names = {
             d: [(figure_name(d, n, page), c) for n, c in _figures_of(results, d)]
@@ -663,30 +620,22 @@ def update(
         body = results_block(
             results, names, page=page, earlier=earlier, framework=framework, drop=drop
         )
-        writes = [(path, replace_block(text, BLOCK, body))]
-        if readme.exists():
-            text = readme.read_text()
-            start = markers(page)[0]
-            if page == BLOCK or any(line.strip() == start for line in text.split("\n")):
-                earlier = block(text, page) if keep_absent else None
-                body = readme_block(results, page, earlier, framework=framework, drop=drop)
-                writes.append((readme, replace_block(text, page, body)))
+        # made before anything is written: a page without its block stays as it was
+        content = replace_block(text, BLOCK, body)
         copy_figures(results, docs / "figures", page)
-    for target, content in writes:
-        atomic_write_text(target, content)
-    return [target for target, _ in writes]
+    atomic_write_text(path, content)
+    return [path]
 
 
 def main(argv: list[str] | None = None) -> int:
-    """Command line: regenerate docs/results.md and the README block from a results folder."""
+    """Command line: regenerate a docs page's results block from a results folder."""
     parser = argparse.ArgumentParser(prog=COMMAND, description=__doc__.splitlines()[0])
     parser.add_argument("results", type=Path, help="a results folder (snakemake all's)")
     parser.add_argument("--docs", type=Path, default=Path("docs"))
-    parser.add_argument("--readme", type=Path, default=Path("README.md"))
     parser.add_argument(
         "--page",
         default=BLOCK,
-        help="docs/PAGE.md and the README block PAGE (default: results, the default run)",
+        help="docs/PAGE.md (default: results, the default run's supervised framework)",
     )
     parser.add_argument(
         "--keep-absent",
@@ -713,7 +662,6 @@ def main(argv: list[str] | None = None) -> int:
         written = update(
             args.results,
             args.docs,
-            args.readme,
             page=args.page,
             keep_absent=args.keep_absent,
             framework=args.framework,

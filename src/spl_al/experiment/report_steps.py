@@ -96,7 +96,7 @@ def make_curves(
     if families and len(families.get("matched", [])) > 1 and len(families.get("paper", [])) > 1:
         paper = [m for m in methods if m in families["paper"]]
         matched = [m for m in methods if m in families["matched"]]
-        panels = {"as the paper compares": paper, "matched training": matched}
+        panels = {"baselines on observed images": paper, "matched training": matched}
     report.plot_curves(df, png, path_pdf=pdf, methods=methods, title=title, panels=panels)
 
 

@@ -123,6 +123,10 @@ COLUMNS = (
     "rule",
     "seeds_needed",
     "methods",
+    "effect_pair",
+    "effect",
+    "effect_low",
+    "effect_high",
     "unit",
     "source",
     "dataset",
@@ -242,6 +246,11 @@ def _claim(claim_id, text, experiment, rows, verdict, *, reason=None, focus=None
         "rule": _rule(rows),
         "seeds_needed": _seeds_needed(rows) if seeds is None else seeds,
         "methods": " ".join(dict.fromkeys([*rows["method_a"], *rows["method_b"]])),
+        # the comparison the evidence quotes, as numbers (the README's answer reads them)
+        "effect_pair": f"{focus['method_a']} - {focus['method_b']}",
+        "effect": float(focus["diff"]),
+        "effect_low": float(focus["ci_low"]),
+        "effect_high": float(focus["ci_high"]),
     }
 
 
@@ -552,7 +561,10 @@ def claims(
     sentence appended to that claim's reason (``encoder_claim_notes``). Returns one row
     per claim whose comparisons exist, columns ``COLUMNS``; ``source`` is ``paper`` or
     ``extension`` (``claim_registry``); ``methods`` the method keys the claim tested;
-    ``unit`` what ``seeds_needed`` counts: seeds, or encoders.
+    ``effect_pair`` ("a - b"), ``effect``, ``effect_low`` and ``effect_high`` the
+    comparison its evidence quotes (the weakest, or the one against it) and its 95%
+    interval, oriented as the claim reads; ``unit`` what ``seeds_needed`` counts:
+    seeds, or encoders.
     """
     if cmp.empty:
         return pd.DataFrame(columns=list(COLUMNS))
