@@ -101,7 +101,11 @@ def train_params(wildcards):
     # the encoder the run reads (a cold start, or selecting on the embedding): its
     # records name it
     encoder = encoder_read(
-        config, wildcards.dataset, wildcards.method, seed=int(wildcards.seed), specs=METHODS
+        config,
+        wildcards.dataset,
+        wildcards.method,
+        seed=int(wildcards.seed),
+        specs=METHODS,
     )
     if encoder is not None:
         setup["encoder"] = encoder
