@@ -402,12 +402,12 @@ def test_keep_absent_updates_one_dataset_of_a_shared_page(tmp_path):
     assert "## street_seg" in page and "street_seg (mIoU" in page
 
 
-def _fake_claims(tables: Path, unit: str, n: int, rows: list[tuple]) -> None:
+def _fake_claims(tables: Path, unit: str, n: int, rows: list[tuple], claim="...") -> None:
     """claims.csv with rows (claim_id, verdict, effect_pair, effect, low, high, n_comparisons)."""
     _write_csv(
         tables / "claims.csv",
         [
-            dict(claim_id=cid, claim="...", verdict=verdict, effect_pair=pair, effect=d,
+            dict(claim_id=cid, claim=claim, verdict=verdict, effect_pair=pair, effect=d,
                  effect_low=lo, effect_high=hi, n_comparisons=m, min_n=n, unit=unit)
             for cid, verdict, pair, d, lo, hi, m in rows
         ],
@@ -432,6 +432,7 @@ def test_the_readme_answer_is_one_table_of_both_frameworks(tmp_path, capsys):
         "seed",
         24,
         [("duis_best_aubc", "supported", "duis - random", 5.6, 3.4, 7.8, 1)],
+        claim="DUIS has the largest AUBC, as the paper compares (against Random only).",
     )
     readme = tmp_path / "README.md"
     readme.write_text("# x\n\n<!-- answer:start -->\nold\n<!-- answer:end -->\n\nrest\n")
@@ -443,7 +444,8 @@ def test_the_readme_answer_is_one_table_of_both_frameworks(tmp_path, capsys):
     )
     row = next(line for line in text.split("\n") if "as the paper compares" in line)
     assert "**contradicted**: −1.1 [−1.7, −0.5] vs Margin" in row
-    assert "**supported**: +5.6 [+3.4, +7.8] |" in row  # one comparator: not named
+    # one comparator: not named, but a declared family the run has in part says so
+    assert "**supported**: +5.6 [+3.4, +7.8] (vs Random only) |" in row
     assert "training on the variants help" in text and "| - |" in text
     assert "low-budget" not in text  # a question no run answers has no row
     # nothing to read: one sentence, the README as it was

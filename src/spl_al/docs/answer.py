@@ -14,6 +14,7 @@ claim a run does not make is "-".
 from __future__ import annotations
 
 import argparse
+import re
 import sys
 from pathlib import Path
 
@@ -69,7 +70,8 @@ def _units(rows: dict[str, dict]) -> str:
 
 
 def cell(row: dict | None) -> str:
-    """A claim's verdict and effect: '**contradicted**: −1.1 [−1.7, −0.5] vs Margin'."""
+    """A claim's verdict and effect: '**contradicted**: −1.1 [−1.7, −0.5] vs Margin', and
+    '(vs Random only)' where the run lacks some of the claim's declared comparators."""
     if row is None:
         return "-"
     text = f"**{row['verdict']}**"
@@ -78,8 +80,13 @@ def cell(row: dict | None) -> str:
     except (KeyError, TypeError, ValueError):
         return text
     text += f": {effect:+.1f} [{low:+.1f}, {high:+.1f}]".replace("-", "−")
-    if int(row.get("n_comparisons") or 1) > 1:
+    several = int(row.get("n_comparisons") or 1) > 1
+    if several:
         text += f" vs {method_label(row['effect_pair'].split(' - ')[-1])}"
+    # a claim whose declared comparators the run lacks in part says so
+    only = re.search(r"\(against (.+?) only\b", row.get("claim") or "")
+    if only:
+        text += f" ({'of' if several else 'vs'} {only.group(1)} only)"
     return text
 
 
