@@ -2,7 +2,8 @@
 pages that repeat one agree with it: the default run's length (docs/benchmarks.md's
 latest run, quoted once in the README), job counts stated as today's (checked by
 ``snakemake -n``), the suite's size in the README (checked against what pytest
-collects) and the slow files CONTRIBUTING lists (checked against their marker)."""
+collects), the slow files CONTRIBUTING lists (checked against their marker), and the
+figures of ``QUOTED``, which every page that quotes one states as its home does."""
 
 from __future__ import annotations
 
@@ -10,6 +11,7 @@ import os
 import re
 import subprocess
 from pathlib import Path
+from typing import NamedTuple
 
 import pytest
 from helpers.snakemake_cli import SNAKEMAKE, from_checkout
@@ -27,9 +29,9 @@ def _pages() -> list[Path]:
 
 def _sentences(text: str) -> list[str]:
     """Sentences (and the clauses a semicolon ends) of a page, a line break inside one
-    read as a space (YAML comment marks too)."""
+    read as a space (YAML comment marks too); a list item starts a sentence."""
     flat = re.sub(r"\s*\n\s*#?\s*", " ", text)
-    return re.split(r"(?<=[.:])\s+(?=[A-Z`(*])|;\s+", flat)
+    return re.split(r"(?<=[.:])\s+(?:-\s+)?(?=[A-Z`(*])|;\s+", flat)
 
 
 def default_run_minutes() -> str:
@@ -57,6 +59,71 @@ def test_the_default_run_time_is_stated_once_and_quoted_as_measured():
     assert not restated, (
         "the default run's length has one home (docs/benchmarks.md#the-default-run); "
         "link it instead of restating a number:\n" + "\n".join(restated)
+    )
+
+
+class Quoted(NamedTuple):
+    """A figure several pages quote: a key, what it is, the page it is measured on (its
+    home), a regex read per sentence (a YAML comment's too) whose first group that matched
+    is the figure, and a regex of the sentences that quote another figure in the same
+    words. (Job counts stated as today's have their own checkable form, JOBS_TODAY.)"""
+
+    key: str
+    name: str
+    home: str
+    pattern: str
+    unless: str | None = None
+
+
+QUOTED = [
+    Quoted(
+        "bf16_speedup",
+        "bf16's training speed-up of the classifier on the AVX512-BF16 EPYC "
+        "(benchmarks.md#training-throughput)",
+        "docs/benchmarks.md",
+        r"\bbf16 (?:trains|adds)\b[^;]*?(\d+\.\d+)x",
+    ),
+    Quoted(
+        "bench_estimate_time",
+        "the time `bench estimate` takes on the default config (benchmarks.md#estimate)",
+        "docs/benchmarks.md",
+        r"(?:bench estimate` \(|times each model [\w ]*?first[:,] )(\d+(?:-\d+)?) s\b",
+    ),
+    Quoted(
+        "street_prediction",
+        "the street scenes' predicted time on the AVX2-only EPYC (benchmarks.md#the-default-run)",
+        "docs/benchmarks.md",
+        r"street[^;]*?(?:predicted (\d+(?:\.\d+)?) min|(\d+(?:\.\d+)?) min predicted)",
+    ),
+    Quoted(
+        "duis_vs_typiclust_papers_settings",
+        "DUIS − Syn+TypiClust, real_cls at 24 seeds, the papers' settings (decisive-lowbudget.md)",
+        "docs/decisive-lowbudget.md",
+        r"(?:DUIS − Syn\+TypiClust \**−|Syn\+TypiClust by )(\d+\.\d) \[",
+        unless=r"scikit-activeml",  # the superseded row, quoted as such
+    ),
+]
+
+
+@pytest.mark.parametrize("figure", QUOTED, ids=[f.key for f in QUOTED])
+def test_a_figure_quoted_on_several_pages_states_its_home_value(figure):
+    """Every page that quotes one of ``QUOTED`` states the value its home states; a page
+    that quotes none of them (a README without the figure) passes."""
+    found: dict[str, list[str]] = {}
+    for page in _pages():
+        for sentence in _sentences(page.read_text()):
+            if figure.unless and re.search(figure.unless, sentence):
+                continue
+            for match in re.finditer(figure.pattern, sentence):
+                value = next(group for group in match.groups() if group)
+                where = f"{page.relative_to(ROOT)}: {match.group(0)[:100]}"
+                found.setdefault(value, []).append(where)
+    homes = [w for where in found.values() for w in where if w.startswith(f"{figure.home}:")]
+    assert homes, f"{figure.home}, the home of {figure.name}, no longer states it in the form read"
+    assert len(found) == 1, (
+        f"{figure.name} is stated as {len(found)} values: keep its home's ({figure.home}) "
+        "and quote it exactly or link it\n"
+        + "\n".join(f"{value}: {w}" for value, where in found.items() for w in where)
     )
 
 
