@@ -223,6 +223,13 @@ use rule stats as embedding_stats with:
             subcategory="Embedding framework",
         ),
         aubc_pdf=layout.figure_file(EMBEDDING, "aubc.pdf"),
+        differences_png=report(
+            layout.figure_file(EMBEDDING, "differences.png"),
+            caption="../report/differences.rst",
+            category="{dataset}",
+            subcategory="Embedding framework",
+        ),
+        differences_pdf=layout.figure_file(EMBEDDING, "differences.pdf"),
     log:
         f"{EMBEDDING_LOGS}/stats.log",
     benchmark:

@@ -192,6 +192,13 @@ rule stats:
             subcategory="Statistics",
         ),
         aubc_pdf=layout.figure_file(SUPERVISED_DIR, "aubc.pdf"),
+        differences_png=report(
+            layout.figure_file(SUPERVISED_DIR, "differences.png"),
+            caption="../report/differences.rst",
+            category="{dataset}",
+            subcategory="Statistics",
+        ),
+        differences_pdf=layout.figure_file(SUPERVISED_DIR, "differences.pdf"),
     log:
         f"{RESULTS}/logs/{{dataset}}/stats.log",
     benchmark:

@@ -121,20 +121,28 @@ def make_stats(
     metrics_paths, experiments: dict, sweeps: dict, *, out: dict, claim_notes=None
 ) -> None:
     """Paired statistics of a dataset: ``comparisons``, ``claims`` and the decomposition
-    of DUIS − Random (CSV + Markdown) and the AUBC chart. ``experiments``: as run
-    (``spl_al.experiment.plan.experiments_of``: the budget's ``selection``). ``out``:
+    of DUIS − Random (CSV + Markdown), the AUBC chart and the differences' forest plot.
+    ``experiments``: as run (``spl_al.experiment.plan.experiments_of``: the budget's
+    ``selection``). ``out``:
     paths by name (comparisons_csv, comparisons_md, claims_csv, claims_md,
-    decomposition_csv, decomposition_md, aubc_png, aubc_pdf). ``claim_notes``: claim id
+    decomposition_csv, decomposition_md, aubc_png, aubc_pdf, differences_png,
+    differences_pdf: the forest plot of DUIS − each budget method on the AUBC,
+    ``spl_al.report.stat_figures.differences_figure``). ``claim_notes``: claim id
     -> sentence added to its reason (``spl_al.report.claims.encoder_claim_notes``).
     Claims are judged on the comparisons as written, so the two files cannot disagree."""
     # pandas on demand (importing this module does not load it)
     import pandas as pd
 
     from spl_al import report
-    from spl_al.report.claims import at_precision, claims, render_claims_markdown
+    from spl_al.report.claims import (
+        at_precision,
+        aubc_differences,
+        claims,
+        render_claims_markdown,
+    )
     from spl_al.report.comparisons import render_comparisons_markdown
     from spl_al.report.decomposition import decomposition, render_decomposition_markdown
-    from spl_al.report.stat_figures import aubc_figure
+    from spl_al.report.stat_figures import aubc_figure, differences_figure
     from spl_al.report.stats import query_rounds
     from spl_al.report.table_kinds import comparisons
 
@@ -164,6 +172,21 @@ def make_stats(
     budget = df if methods is None else df[df["method"].isin(methods)]
     budget = query_rounds(budget, budget_exp.get("rounds"))
     report.save_figure(aubc_figure(budget, methods), out["aubc_png"], out["aubc_pdf"])
+    diffs = aubc_differences(stored, budget_exp.get("selection"), verdicts)
+    standin = ", synthetic stand-in" if bool(df["synthetic_standin"].any()) else ""
+    figure = differences_figure(
+        diffs, dataset=name, metric=str(df["metric"].iloc[0]), note=standin + _framework_words(df)
+    )
+    report.save_figure(figure, out["differences_png"], out["differences_pdf"])
+
+
+def _framework_words(df) -> str:
+    """', embedding framework (linear probe)' of records in a framework with a short name."""
+    # pandas on demand (importing this module does not load it)
+    from spl_al import report
+
+    kind = get_framework(report.framework_of(df))
+    return f", {kind.name} framework ({kind.short})" if kind.short else ""
 
 
 def write_run_config(config: dict, out_path) -> dict:
