@@ -1,8 +1,11 @@
 """The differences figure (DUIS − each method on the AUBC, a forest plot by claim
-family) on small hand-built frames; and the outputs `all` asks of the CI config for it."""
+family) and the batch-conditions figure and table (the MSPPP levels and SBRs of the
+frames each method queried, against the pool's), on small hand-built frames; and the
+outputs `all` asks of the CI config for them."""
 
 from __future__ import annotations
 
+import json
 from pathlib import Path
 
 import numpy as np
@@ -24,6 +27,13 @@ from spl_al.report.claims import (
     at_precision,
     aubc_differences,
     claims,
+)
+from spl_al.report.conditions import (
+    POOL,
+    batch_conditions,
+    batch_conditions_figure,
+    queried_frames,
+    sbr_bins,
 )
 from spl_al.report.display import method_label
 from spl_al.report.stat_figures import DIFFERENCES_XLABEL, VERDICT_STYLES, differences_figure
@@ -190,6 +200,159 @@ def test_encoders_as_the_unit_are_named_in_the_title():
     assert "n = 6 encoders' means (60 seeds)" in title
 
 
+# ---------------------------------------------------------------- batch conditions
+
+
+def test_each_query_round_adds_the_frames_its_set_gained():
+    sets = [
+        ("duis", 1, 0, [0, 1]),
+        ("duis", 1, 1, [0, 1, 5, 6]),
+        ("duis", 1, 2, [0, 1, 5, 6, 2]),
+        ("random", 1, 0, [0, 1]),
+        ("random", 1, 2, [0, 1, 3, 4, 7]),  # round 1 missing: round 2 adds nothing
+    ]
+    q = queried_frames(sets)
+    assert q.values.tolist() == [["duis", 1, 1, 5], ["duis", 1, 1, 6], ["duis", 1, 2, 2]]
+
+
+# a pool of 10 frames: 4 low, 3 medium, 3 high; SBR 0.2 (5 frames), 1 (3), 5 (2)
+LEVEL = np.array(["low"] * 4 + ["medium"] * 3 + ["high"] * 3)
+SBR = np.array([0.2, 0.2, 0.2, 1.0, 0.2, 0.2, 1.0, 1.0, 5.0, 5.0])
+
+
+def _queried() -> pd.DataFrame:
+    sets = [
+        ("duis", 1, 0, [9]),
+        ("duis", 1, 1, [9, 0, 1]),  # low, low
+        ("duis", 2, 0, [8]),
+        ("duis", 2, 1, [8, 2, 7]),  # low, high
+        ("random", 1, 0, [9]),
+        ("random", 1, 1, [9, 4, 8]),  # medium, high
+    ]
+    return queried_frames(sets)
+
+
+def test_level_shares_sum_to_one_and_the_pool_row_is_the_pools_make_up():
+    table = batch_conditions(_queried(), LEVEL, SBR, methods=["random", "duis"])
+    assert list(dict.fromkeys(table["method"])) == [POOL, "random", "duis"]
+    sums = table.groupby(["method", "condition"])["share"].sum()
+    assert np.allclose(sums.to_numpy(), 1.0)
+    shares = table.set_index(["method", "condition", "bin"])["share"]
+    assert shares[(POOL, "msppp_level", "low")] == pytest.approx(0.4)
+    assert shares[(POOL, "msppp_level", "medium")] == pytest.approx(0.3)
+    assert shares[(POOL, "sbr", "0.2")] == pytest.approx(0.5)
+    assert shares[(POOL, "sbr", "5")] == pytest.approx(0.2)
+    # DUIS queried 0, 1, 2 (low) and 7 (high), over 2 runs: 3/4 low
+    assert shares[("duis", "msppp_level", "low")] == pytest.approx(0.75)
+    assert shares[("duis", "msppp_level", "medium")] == 0
+    assert shares[("random", "msppp_level", "high")] == pytest.approx(0.5)
+    assert shares[("duis", "sbr", "1")] == pytest.approx(0.25)
+    levels = table[(table["method"] == "duis") & (table["condition"] == "msppp_level")]
+    assert levels["bin"].tolist() == ["low", "medium", "high"]  # fewest photons first
+    assert levels["n_frames"].tolist() == [3, 0, 1]
+    counted = table.drop_duplicates("method").set_index("method")
+    assert counted.loc["duis", "n_runs"] == 2 and counted.loc[POOL, "n_runs"] == 0
+    assert counted.loc["duis", "rounds"] == "1"
+
+
+def test_many_sbr_values_are_binned_by_the_pools_tertiles_and_nan_is_unknown():
+    sbr = np.array([0.1, 0.2, 0.3, 0.5, 0.8, 1.0, 2.0, 3.0, 5.0, np.nan])
+    labels, order = sbr_bins(sbr)
+    assert len(order) == 4 and order[-1] == "unknown"
+    assert labels[-1] == "unknown" and labels[0] == order[0] and labels[-2] == order[2]
+    assert pd.Series(labels[:-1]).value_counts().tolist() == [3, 3, 3]
+    few, few_order = sbr_bins(SBR)
+    assert few_order == ["0.2", "1", "5"] and few[3] == "1"
+
+
+def test_the_bars_are_the_shares_with_the_pool_on_top():
+    from spl_al.plotting import texts_outside
+
+    table = batch_conditions(_queried(), LEVEL, SBR, methods=["random", "duis"])
+    fig = batch_conditions_figure(table, title="real_cls, synthetic stand-in: conditions")
+    bars = {p.get_gid(): p for ax in fig.axes for p in ax.patches if p.get_gid()}
+    for _, row in table.iterrows():
+        bar = bars[f"{row['method']}|{row['condition']}|{row['bin']}"]
+        assert bar.get_width() == pytest.approx(row["share"])
+    pool = bars[f"{POOL}|msppp_level|low"]
+    duis = bars["duis|msppp_level|low"]
+    assert pool.get_y() < duis.get_y()  # drawn first, the top row once inverted
+    assert fig.axes[0].get_ylim()[0] > fig.axes[0].get_ylim()[1]
+    assert bars["duis|msppp_level|high"].get_x() == pytest.approx(0.75)  # stacked
+    assert texts_outside(fig) == []
+
+
+def test_the_report_step_reads_labeled_sets_of_both_frameworks(tmp_path):
+    """make_batch_conditions: a dataset file's conditions (no image read), the
+    supervised runs' labeled files and the embedding framework's runs files."""
+    from spl_al.data.dataset import FORMAT, VERSION, load_conditions
+    from spl_al.data.storage import atomic_savez
+    from spl_al.experiment.report_steps import make_batch_conditions
+
+    split = np.array(["train"] * 10 + ["test"] * 2)
+    arrays = {
+        "split": split,
+        "level": np.concatenate([LEVEL, ["low", "high"]]),
+        "msppp": np.ones(12),
+        "sbr": np.concatenate([SBR, [1.0, 1.0]]),
+    }
+    data = tmp_path / "dataset.npz"
+    atomic_savez(
+        data, arrays, {"format": FORMAT, "version": VERSION, "meta": {"synthetic_standin": True}}
+    )
+    got, meta = load_conditions(data)
+    assert sorted(got) == ["level", "msppp", "sbr", "split"] and meta["synthetic_standin"]
+
+    files, layout = [], []
+    for method, seed, rounds in (("duis", 1, [[9], [9, 0, 1]]), ("random", 1, [[9], [9, 4, 8]])):
+        layout.append([method, seed, len(rounds)])
+        for r, idx in enumerate(rounds):
+            path = tmp_path / f"{method}{seed}_{r}.json"
+            path.write_text(json.dumps({"pool_indices": idx}))
+            files.append(str(path))
+    out = {k: str(tmp_path / f"s.{k}") for k in ("csv", "png", "pdf")}
+    make_batch_conditions(
+        data,
+        methods=["random", "duis"],
+        rounds=2,
+        out=out,
+        title="real_cls",
+        framework=SUPERVISED.name,
+        labeled_paths=files,
+        labeled_runs=layout,
+    )
+    table = pd.read_csv(out["csv"])
+    low = table[(table["condition"] == "msppp_level") & (table["bin"] == "low")]
+    assert dict(zip(low["method"], low["share"], strict=True)) == {
+        POOL: 0.4,
+        "random": 0,
+        "duis": 1,
+    }
+    assert Path(out["png"]).read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    assert Path(out["pdf"]).read_bytes()[:4] == b"%PDF"
+
+    records = [
+        {"method": "duis", "seed": s, "round": r, "pool_indices": idx}
+        for s in (1, 2)
+        for r, idx in enumerate([[9], [9, 0], [9, 0, 8]])
+    ]
+    runs = tmp_path / "duis.json"
+    runs.write_text(json.dumps(records))
+    out = {k: str(tmp_path / f"e.{k}") for k in ("csv", "png", "pdf")}
+    make_batch_conditions(
+        data,
+        methods=["duis"],
+        rounds=2,  # round 2 is past the budget's rounds: not counted
+        out=out,
+        title="real_cls",
+        framework=EMBEDDING.name,
+        runs_paths=[str(runs)],
+    )
+    table = pd.read_csv(out["csv"])
+    duis = table[(table["method"] == "duis") & (table["condition"] == "msppp_level")]
+    assert duis["n_frames"].tolist() == [2, 0, 0] and set(duis["n_runs"]) == {2}
+
+
 def _merged(base: dict, over: dict) -> dict:
     out = dict(base)
     for key, value in over.items():
@@ -198,8 +361,8 @@ def _merged(base: dict, over: dict) -> dict:
 
 
 def test_all_asks_the_ci_run_for_both_figures_in_both_frameworks():
-    """`all` asks each budget experiment of config/ci.yaml for its differences figure
-    (the stats job's)."""
+    """config/ci.yaml's datasets have MSPPP levels: `all` asks each budget experiment
+    for its differences figure (the stats job's) and its batch conditions."""
     default = yaml.safe_load((ROOT / "config" / "config.yaml").read_text())
     config = _merged(default, yaml.safe_load((ROOT / "config" / "ci.yaml").read_text()))
     for dataset, kind, folder in (
@@ -209,5 +372,6 @@ def test_all_asks_the_ci_run_for_both_figures_in_both_frameworks():
         ("street_pc", SUPERVISED, "R/street_pc"),
     ):
         out = framework_outputs(config, dataset, kind, results="R")
-        for name in ("differences.png", "differences.pdf"):
+        for name in ("differences.png", "differences.pdf", "batch_conditions.png"):
             assert f"{folder}/figures/{name}" in out, (dataset, kind.name, name)
+        assert f"{folder}/tables/batch_conditions.csv" in out

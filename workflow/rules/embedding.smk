@@ -247,3 +247,41 @@ use rule stats as embedding_stats with:
             ),
         ),
         files=job_files,
+
+
+use rule batch_conditions as embedding_batch_conditions with:
+    input:
+        data=DATASET_FILE,
+        runs=lambda w: probe_runs_files(
+            w.dataset,
+            set(budget_block(w.dataset, EMBEDDING_FRAMEWORK).get("methods", [])),
+        ),
+    output:
+        csv=report(
+            layout.table_file(EMBEDDING, "batch_conditions.csv"),
+            caption="../report/batch_conditions.rst",
+            category="{dataset}",
+            subcategory="Embedding framework",
+        ),
+        png=report(
+            layout.figure_file(EMBEDDING, "batch_conditions.png"),
+            caption="../report/batch_conditions.rst",
+            category="{dataset}",
+            subcategory="Embedding framework",
+        ),
+        pdf=layout.figure_file(EMBEDDING, "batch_conditions.pdf"),
+    log:
+        f"{EMBEDDING_LOGS}/batch_conditions.log",
+    benchmark:
+        f"{EMBEDDING_BENCHMARKS}/batch_conditions.tsv"
+    params:
+        job=job_params(
+            methods=lambda w: budget_block(w.dataset, EMBEDDING_FRAMEWORK).get(
+                "methods", []
+            ),
+            rounds=lambda w: budget_block(w.dataset, EMBEDDING_FRAMEWORK).get(
+                "rounds", 0
+            ),
+            framework=EMBEDDING_FRAMEWORK.name,
+        ),
+        files=job_files,
