@@ -135,12 +135,43 @@ def test_every_table_has_its_rows_columns_and_ranges(ci_results):
 
     for dataset in ("real_cls", "street_seg", "street_pc"):
         figures = ci_results / dataset / "figures"
-        for name in ("curves.png", "level_curves.png", "contact_sheet.png", "variants_sheet.png"):
+        for name in (
+            "curves.png",
+            "level_curves.png",
+            "contact_sheet.png",
+            "variants_sheet.png",
+            "differences.png",
+            "batch_conditions.png",
+        ):
             assert (figures / name).read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
         assert (figures / "curves.pdf").read_bytes()[:4] == b"%PDF"
+        assert (figures / "differences.pdf").read_bytes()[:4] == b"%PDF"
         # one panel per MSPPP level, not the budget curves again
         curves = (figures / "curves.png").read_bytes()
         assert (figures / "level_curves.png").read_bytes() != curves
+
+
+def test_the_batch_conditions_count_each_budget_methods_queried_frames(ci_results):
+    """tables/batch_conditions.csv of both frameworks: the pool first, then every
+    budget method, each row's shares summing to 1 per condition, the frames each
+    method queried over its query rounds and seeds."""
+    for folder, methods, frames in (
+        (ci_results / "real_cls", CLS_BUDGET, 2 * 6),  # 2 seeds x 1 query of 6
+        (ci_results / "real_cls" / "embedding", None, 3 * 2 * 6),  # 3 seeds x 2 of 6
+        (ci_results / "street_pc", ["random", "duis"], 2 * 3),
+    ):
+        table = pd.read_csv(folder / "tables" / "batch_conditions.csv")
+        assert table["method"].iloc[0] == "pool"
+        if methods is not None:
+            assert set(table["method"]) == {"pool", *methods}
+        sums = table.groupby(["method", "condition"])["share"].sum()
+        assert np.allclose(sums.to_numpy(), 1.0)
+        counted = table[(table["method"] != "pool") & (table["condition"] == "msppp_level")]
+        assert (counted.groupby("method")["n_frames"].sum() == frames).all()
+        assert set(table["condition"]) == {"msppp_level", "sbr"}
+        figures = folder / "figures"
+        for name in ("differences.png", "batch_conditions.png"):
+            assert (figures / name).read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
 
 
 def test_the_run_records_the_ci_config_with_the_defaults_it_does_not_name(ci_results):

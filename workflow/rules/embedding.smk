@@ -223,6 +223,13 @@ use rule stats as embedding_stats with:
             subcategory="Embedding framework",
         ),
         aubc_pdf=layout.figure_file(EMBEDDING, "aubc.pdf"),
+        differences_png=report(
+            layout.figure_file(EMBEDDING, "differences.png"),
+            caption="../report/differences.rst",
+            category="{dataset}",
+            subcategory="Embedding framework",
+        ),
+        differences_pdf=layout.figure_file(EMBEDDING, "differences.pdf"),
     log:
         f"{EMBEDDING_LOGS}/stats.log",
     benchmark:
@@ -238,5 +245,43 @@ use rule stats as embedding_stats with:
             claim_notes=lambda w: encoder_claim_notes(
                 encoder_recipe(config["datasets"][w.dataset]).get("objective", "siv")
             ),
+        ),
+        files=job_files,
+
+
+use rule batch_conditions as embedding_batch_conditions with:
+    input:
+        data=DATASET_FILE,
+        runs=lambda w: probe_runs_files(
+            w.dataset,
+            set(budget_block(w.dataset, EMBEDDING_FRAMEWORK).get("methods", [])),
+        ),
+    output:
+        csv=report(
+            layout.table_file(EMBEDDING, "batch_conditions.csv"),
+            caption="../report/batch_conditions.rst",
+            category="{dataset}",
+            subcategory="Embedding framework",
+        ),
+        png=report(
+            layout.figure_file(EMBEDDING, "batch_conditions.png"),
+            caption="../report/batch_conditions.rst",
+            category="{dataset}",
+            subcategory="Embedding framework",
+        ),
+        pdf=layout.figure_file(EMBEDDING, "batch_conditions.pdf"),
+    log:
+        f"{EMBEDDING_LOGS}/batch_conditions.log",
+    benchmark:
+        f"{EMBEDDING_BENCHMARKS}/batch_conditions.tsv"
+    params:
+        job=job_params(
+            methods=lambda w: budget_block(w.dataset, EMBEDDING_FRAMEWORK).get(
+                "methods", []
+            ),
+            rounds=lambda w: budget_block(w.dataset, EMBEDDING_FRAMEWORK).get(
+                "rounds", 0
+            ),
+            framework=EMBEDDING_FRAMEWORK.name,
         ),
         files=job_files,

@@ -10,6 +10,7 @@ localrules:
     summary,
     run_config,
     stats,
+    batch_conditions,
 
 
 rule table:
@@ -192,6 +193,13 @@ rule stats:
             subcategory="Statistics",
         ),
         aubc_pdf=layout.figure_file(SUPERVISED_DIR, "aubc.pdf"),
+        differences_png=report(
+            layout.figure_file(SUPERVISED_DIR, "differences.png"),
+            caption="../report/differences.rst",
+            category="{dataset}",
+            subcategory="Statistics",
+        ),
+        differences_pdf=layout.figure_file(SUPERVISED_DIR, "differences.pdf"),
     log:
         f"{RESULTS}/logs/{{dataset}}/stats.log",
     benchmark:
@@ -212,3 +220,45 @@ rule stats:
         files=job_files,
     shell:
         python_job("stats")
+
+
+# The MSPPP levels and SBRs of the frames each budget method queried, against the
+# pool's (only for datasets whose images have MSPPP levels: spl_al.experiment.outputs).
+rule batch_conditions:
+    input:
+        data=DATASET_FILE,
+        labeled=lambda w: batch_labeled_files(w.dataset),
+    output:
+        csv=report(
+            layout.table_file(SUPERVISED_DIR, "batch_conditions.csv"),
+            caption="../report/batch_conditions.rst",
+            category="{dataset}",
+            subcategory="Statistics",
+        ),
+        png=report(
+            layout.figure_file(SUPERVISED_DIR, "batch_conditions.png"),
+            caption="../report/batch_conditions.rst",
+            category="{dataset}",
+            subcategory="Statistics",
+        ),
+        pdf=layout.figure_file(SUPERVISED_DIR, "batch_conditions.pdf"),
+    log:
+        f"{RESULTS}/logs/{{dataset}}/batch_conditions.log",
+    benchmark:
+        f"{RESULTS}/benchmarks/{{dataset}}/batch_conditions.tsv"
+    conda:
+        "../envs/spl-al.yaml"
+    threads: 1
+    resources:
+        mem_mb=res("batch_conditions", "mem_mb", 2000),
+        runtime=res("batch_conditions", "runtime", 10),
+    params:
+        job=job_params(
+            methods=lambda w: budget_block(w.dataset).get("methods", []),
+            rounds=lambda w: budget_block(w.dataset).get("rounds", 0),
+            labeled_runs=lambda w: batch_runs(w.dataset),
+            framework=SUPERVISED.name,
+        ),
+        files=job_files,
+    shell:
+        python_job("batch_conditions")

@@ -80,6 +80,21 @@ _PLAIN_FIELDS = (
 SCENE_FIELDS = ("clean_depth_m", "reflectance", "clean_reflectance", "object_mask")
 
 
+CONDITION_FIELDS = ("split", "level", "msppp", "sbr")
+"""What ``load_conditions`` reads of a dataset file."""
+
+
+def load_conditions(path) -> tuple[dict[str, np.ndarray], dict]:
+    """Each image's split, MSPPP level, MSPPP and SBR (``CONDITION_FIELDS``) of a
+    dataset file, and its ``meta`` record, without reading or decompressing any image:
+    what a report of the queried frames' conditions needs."""
+    arrays, meta = storage.read_npz(path, FORMAT, only=CONDITION_FIELDS)
+    missing = set(CONDITION_FIELDS) - arrays.keys()
+    if missing:
+        raise ValueError(f"{path}: dataset file lacks {sorted(missing)}.")
+    return arrays, meta.get("meta", {})
+
+
 def sensor_to_dict(sensor: SensorParams | None) -> dict | None:
     """A JSON-ready dict of ``sensor``'s fields (None stays None)."""
     return None if sensor is None else dataclasses.asdict(sensor)

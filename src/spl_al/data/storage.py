@@ -71,16 +71,19 @@ def atomic_savez(path, arrays: dict[str, np.ndarray], meta: dict, compress: bool
     return atomic_write(path, write)
 
 
-def read_npz(path, kind: str, skip=()) -> tuple[dict[str, np.ndarray], dict]:
+def read_npz(path, kind: str, skip=(), only=None) -> tuple[dict[str, np.ndarray], dict]:
     """Arrays and JSON meta of a file written by ``atomic_savez``; ``kind`` names the
-    expected ``meta["format"]`` for the error message. Arrays named in ``skip`` are
-    neither read nor decompressed."""
+    expected ``meta["format"]`` for the error message. Arrays named in ``skip``, and
+    with ``only`` given those it does not name, are neither read nor decompressed."""
     path = Path(path)
     if not path.is_file():
         raise ValueError(f"{path}: no such file (expected an {kind} .npz).")
     try:
         with np.load(path, allow_pickle=False) as z:
-            arrays = {k: z[k] for k in z.files if k not in skip}
+            wanted = [k for k in z.files if k not in skip]
+            if only is not None:
+                wanted = [k for k in wanted if k in set(only) | {"meta_json"}]
+            arrays = {k: z[k] for k in wanted}
     except (OSError, ValueError, zipfile.BadZipFile, EOFError) as exc:
         raise ValueError(f"{path}: cannot be read as an {kind} .npz file ({exc}).") from None
     if "meta_json" not in arrays:

@@ -23,7 +23,9 @@ STATISTICS = ("comparisons", "claims", "decomposition")
 def framework_outputs(config: dict, dataset: str, framework, *, results) -> list[str]:
     """The tables, summary, statistics and budget figures of ``dataset``'s experiments
     in ``framework`` (a kind or its name), under ``results``: nothing when it runs none
-    there. The per-level table and curves only for images with MSPPP levels."""
+    there. The per-level table and curves, and the conditions of the queried frames
+    (``batch_conditions``: its CSV and figure), only for images with MSPPP levels; the
+    forest plot of DUIS − each method (``differences``) with the statistics."""
     kind = get_framework(framework)
     entry = config["datasets"][dataset]
     experiments = kind.experiments(entry)
@@ -36,6 +38,9 @@ def framework_outputs(config: dict, dataset: str, framework, *, results) -> list
     if tables:
         out += [table_file(base, f"{name}.{ext}") for name in STATISTICS for ext in ("csv", "md")]
     if "budget" in experiments:
-        figures = ["curves", "aubc", *(["level_curves"] if levels else [])]
+        figures = ["curves", "aubc", "differences", *(["level_curves"] if levels else [])]
+        if levels:
+            figures.append("batch_conditions")
+            out.append(table_file(base, "batch_conditions.csv"))
         out += [figure_file(base, f"{f}.{ext}") for f in figures for ext in FIGURE_FORMATS]
     return out

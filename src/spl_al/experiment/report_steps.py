@@ -3,7 +3,7 @@ statistics from the per-round metrics records (pandas and matplotlib, no torch).
 
 from __future__ import annotations
 
-from spl_al.atomic import atomic_write, atomic_write_text, write_json
+from spl_al.atomic import atomic_write, atomic_write_text, read_json, write_json
 from spl_al.config import dataset_precision, write_config
 from spl_al.frameworks import get_framework
 from spl_al.training.compute import Compute
@@ -121,20 +121,28 @@ def make_stats(
     metrics_paths, experiments: dict, sweeps: dict, *, out: dict, claim_notes=None
 ) -> None:
     """Paired statistics of a dataset: ``comparisons``, ``claims`` and the decomposition
-    of DUIS − Random (CSV + Markdown) and the AUBC chart. ``experiments``: as run
-    (``spl_al.experiment.plan.experiments_of``: the budget's ``selection``). ``out``:
+    of DUIS − Random (CSV + Markdown), the AUBC chart and the differences' forest plot.
+    ``experiments``: as run (``spl_al.experiment.plan.experiments_of``: the budget's
+    ``selection``). ``out``:
     paths by name (comparisons_csv, comparisons_md, claims_csv, claims_md,
-    decomposition_csv, decomposition_md, aubc_png, aubc_pdf). ``claim_notes``: claim id
+    decomposition_csv, decomposition_md, aubc_png, aubc_pdf, differences_png,
+    differences_pdf: the forest plot of DUIS − each budget method on the AUBC,
+    ``spl_al.report.stat_figures.differences_figure``). ``claim_notes``: claim id
     -> sentence added to its reason (``spl_al.report.claims.encoder_claim_notes``).
     Claims are judged on the comparisons as written, so the two files cannot disagree."""
     # pandas on demand (importing this module does not load it)
     import pandas as pd
 
     from spl_al import report
-    from spl_al.report.claims import at_precision, claims, render_claims_markdown
+    from spl_al.report.claims import (
+        at_precision,
+        aubc_differences,
+        claims,
+        render_claims_markdown,
+    )
     from spl_al.report.comparisons import render_comparisons_markdown
     from spl_al.report.decomposition import decomposition, render_decomposition_markdown
-    from spl_al.report.stat_figures import aubc_figure
+    from spl_al.report.stat_figures import aubc_figure, differences_figure
     from spl_al.report.stats import query_rounds
     from spl_al.report.table_kinds import comparisons
 
@@ -164,6 +172,74 @@ def make_stats(
     budget = df if methods is None else df[df["method"].isin(methods)]
     budget = query_rounds(budget, budget_exp.get("rounds"))
     report.save_figure(aubc_figure(budget, methods), out["aubc_png"], out["aubc_pdf"])
+    diffs = aubc_differences(stored, budget_exp.get("selection"), verdicts)
+    standin = ", synthetic stand-in" if bool(df["synthetic_standin"].any()) else ""
+    figure = differences_figure(
+        diffs, dataset=name, metric=str(df["metric"].iloc[0]), note=standin + _framework_words(df)
+    )
+    report.save_figure(figure, out["differences_png"], out["differences_pdf"])
+
+
+def _framework_words(df) -> str:
+    """', embedding framework (linear probe)' of records in a framework with a short name."""
+    # pandas on demand (importing this module does not load it)
+    from spl_al import report
+
+    kind = get_framework(report.framework_of(df))
+    return f", {kind.name} framework ({kind.short})" if kind.short else ""
+
+
+def make_batch_conditions(
+    dataset_path,
+    *,
+    methods,
+    rounds: int,
+    out: dict,
+    title: str,
+    framework: str,
+    labeled_paths=(),
+    labeled_runs=(),
+    runs_paths=(),
+) -> None:
+    """The MSPPP levels and SBRs of the frames each budget method queried over every
+    query round (rounds 1 to ``rounds`` - 1) and seed, against the training pool's
+    (``spl_al.report.conditions``): ``out["csv"]`` and the figure ``out["png"]``,
+    ``out["pdf"]``.
+
+    The labeled sets: in the supervised framework each run's files, round 0 first
+    (``labeled_paths``, in the order of ``labeled_runs``: [method, seed, files] each);
+    in the embedding framework the methods' runs files (``runs_paths``), whose records
+    hold each round's ``pool_indices``. ``title``: the dataset's name."""
+    # pandas and matplotlib on demand (importing this module does not load them)
+    from spl_al.data.dataset import load_conditions
+    from spl_al.pool import read_labeled
+    from spl_al.report.conditions import batch_conditions, batch_conditions_figure, queried_frames
+    from spl_al.report.curves import save_figure
+
+    sets = []
+    paths = iter([labeled_paths] if isinstance(labeled_paths, str) else labeled_paths)
+    for method, seed, n_files in labeled_runs:
+        for r in range(int(n_files)):
+            sets.append((method, int(seed), r, read_labeled(next(paths))))
+    for path in [runs_paths] if isinstance(runs_paths, str) else runs_paths:
+        for record in read_json(path):
+            if record["method"] in methods and int(record["round"]) < int(rounds):
+                sets.append(
+                    (record["method"], record["seed"], record["round"], record["pool_indices"])
+                )
+    arrays, meta = load_conditions(dataset_path)
+    train = arrays["split"] == "train"
+    queried = queried_frames(sets)
+    table = batch_conditions(queried, arrays["level"][train], arrays["sbr"][train], methods)
+    atomic_write(out["csv"], lambda tmp: table.to_csv(tmp, index=False))
+    kind = get_framework(framework)
+    where = f", {kind.name} framework ({kind.short})" if kind.short else ""
+    standin = ", synthetic stand-in" if meta.get("synthetic_standin") else ""
+    figure = batch_conditions_figure(
+        table,
+        title=f"{title}{standin}{where}: conditions of the queried frames against the pool's",
+    )
+    save_figure(figure, out["png"], out["pdf"])
 
 
 def write_run_config(config: dict, out_path) -> dict:

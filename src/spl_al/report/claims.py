@@ -593,6 +593,117 @@ def claims(
     return frame[list(COLUMNS)]
 
 
+DIFFERENCE_COLUMNS = (
+    "family",
+    "heading",
+    "claim_id",
+    "claim_verdict",
+    "method",
+    "diff",
+    "ci_low",
+    "ci_high",
+    "n",
+    "n_seeds",
+    "unit",
+    "rule",
+    "verdict",
+    "span",
+)
+OTHERS = "others"
+"""``aubc_differences``' family of the budget methods no declared family holds."""
+FAMILY_HEADINGS = {
+    "paper": "the paper's baselines, as the paper compares",
+    "matched": "their matched twins (trained on the variants)",
+    "low_budget": "low-budget baselines, matched training",
+    "dropquery": "DropQuery, matched training",
+    OTHERS: "in no claim",
+}
+"""How ``aubc_differences`` heads each family (``claim_registry.FAMILIES`` by name)."""
+NO_CLAIM = "no claim"
+"""The verdict of a comparison no claim tests (``OTHERS``)."""
+
+
+def aubc_differences(
+    cmp: pd.DataFrame, selection: dict | None, claims_frame: pd.DataFrame | None = None
+) -> pd.DataFrame:
+    """DUIS − each budget method on the AUBC over the query rounds, grouped by the
+    declared families (``claim_registry.FAMILIES``, in their order; the budget methods
+    none holds last, family ``OTHERS``): one row per comparator, columns
+    ``DIFFERENCE_COLUMNS``, the differences and intervals in points as
+    ``comparisons.csv`` has them, oriented DUIS − method.
+
+    ``verdict``: the comparison's own reading under its family's claim, by the claim's
+    rule: ``SUPPORTED`` when resolved in DUIS's favour, ``CONTRADICTED`` when it counts
+    against the claim (resolved against and, from 6 units, surviving Holm over the
+    family), else ``INCONCLUSIVE``; below 6 units ``AGREE`` and ``AGAINST`` instead of
+    the first two; ``NO_CLAIM`` for ``OTHERS``. ``claims_frame`` (``claims`` after
+    ``at_precision``): the family's claim verdict (``claim_verdict``), and a run whose
+    claims are not decided at its precision reads every comparison inconclusive."""
+    aubc = cmp[(cmp["experiment"] == "budget") & (cmp["point"] == "AUBC")] if len(cmp) else cmp
+    decided = claims_frame is None or "precision" not in claims_frame or claims_frame.empty
+    if not decided:
+        decided = str(claims_frame["precision"].iloc[0]) in ("", "nan", DECIDING_PRECISION)
+    claim_verdict = (
+        dict(zip(claims_frame["claim_id"], claims_frame["verdict"], strict=True))
+        if claims_frame is not None and not claims_frame.empty
+        else {}
+    )
+    out, seen = [], set()
+    for spec in CLAIMS:
+        if spec.family is None or spec.points != "aubc" or aubc.empty:
+            continue
+        members = spec.family.members(selection)
+        rows = _family_rows(cmp, spec, members) if members else aubc.iloc[0:0]
+        if rows.empty:
+            continue
+        favour = ((rows["direction"] > 0) & rows["resolved"].astype(bool)).to_numpy()
+        against = _against(rows).to_numpy()
+        verdict = np.where(against, CONTRADICTED, np.where(favour, SUPPORTED, INCONCLUSIVE))
+        rule = _rule(rows)
+        if rule == "small-n":
+            small = {SUPPORTED: AGREE, CONTRADICTED: AGAINST}
+            verdict = np.array([small.get(v, v) for v in verdict])
+        if not decided:
+            verdict[:] = INCONCLUSIVE
+        rows = rows.assign(verdict=verdict, rule=rule)
+        rows = rows.set_index("method_b").loc[[m for m in members if m in set(rows["method_b"])]]
+        for method, row in rows.iterrows():
+            seen.add(method)
+            heading = FAMILY_HEADINGS.get(spec.family.name, spec.family.words)
+            out.append(_difference(row, method, spec.family.name, heading))
+            out[-1].update(
+                claim_id=spec.claim_id, claim_verdict=claim_verdict.get(spec.claim_id, "")
+            )
+    if not aubc.empty:
+        rest = [m for m in (selection or {}) if m not in seen and m != FULL_METHOD]
+        others = _with_full(aubc, rest)
+        order = [m for m in (selection or {}) if m in set(others["method_b"])]
+        for method, row in others.set_index("method_b").loc[order].iterrows():
+            row = row.copy()
+            row["rule"], row["verdict"] = rule_name(int(row["n"])), NO_CLAIM
+            out.append(_difference(row, method, OTHERS, FAMILY_HEADINGS[OTHERS]))
+            out[-1].update(claim_id="", claim_verdict="")
+    return pd.DataFrame(out, columns=list(DIFFERENCE_COLUMNS))
+
+
+def _difference(row, method: str, family: str, heading: str) -> dict:
+    """One row of ``aubc_differences``."""
+    return {
+        "family": family,
+        "heading": heading,
+        "method": method,
+        "diff": float(row["diff"]),
+        "ci_low": float(row["ci_low"]),
+        "ci_high": float(row["ci_high"]),
+        "n": int(row["n"]),
+        "n_seeds": int(row["n_seeds"]) if pd.notna(row.get("n_seeds")) else int(row["n"]),
+        "unit": str(row.get("unit", "seed")),
+        "rule": str(row["rule"]),
+        "verdict": str(row["verdict"]),
+        "span": str(row.get("span", "") or ""),
+    }
+
+
 DECIDING_PRECISION = "fp32"
 """The precision claims are decided at: the decisive runs'. A run trained in bf16 is
 another draw of every seed's trajectory, and at 8 and 16 seeds its verdicts differed

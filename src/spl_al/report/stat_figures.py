@@ -1,4 +1,5 @@
-"""Figures of the paired statistics: AUBC with intervals, robustness heatmaps.
+"""Figures of the paired statistics: AUBC with intervals, the paired differences of
+DUIS against each method (a forest plot), robustness heatmaps.
 
 matplotlib is imported only when a figure is made (``spl_al.plotting.new_figure``).
 """
@@ -11,7 +12,21 @@ import numpy as np
 import pandas as pd
 
 from spl_al.plotting import fit_texts, new_figure
-from spl_al.report.display import METRIC_LABELS, method_colors, method_label, ordered_methods
+from spl_al.report.claims import (
+    AGAINST,
+    AGREE,
+    CONTRADICTED,
+    INCONCLUSIVE,
+    NO_CLAIM,
+    SUPPORTED,
+)
+from spl_al.report.display import (
+    METRIC_LABELS,
+    METRIC_WORDS,
+    method_colors,
+    method_label,
+    ordered_methods,
+)
 from spl_al.report.records import one_dataset
 from spl_al.report.stats import aubc_per_seed, mean_interval, span_text, unit_means
 
@@ -71,6 +86,130 @@ def aubc_figure(df: pd.DataFrame, methods: Sequence[str] | None = None, dataset=
     )
     ax.set_xlabel(f"AUBC: mean {metric} (%) over the labeling-ratio range")
     ax.grid(axis="x", alpha=0.3)
+    return fit_texts(fig)
+
+
+VERDICT_STYLES = {
+    SUPPORTED: {"color": "#1a9850", "marker": "o", "filled": True},
+    AGREE: {"color": "#1a9850", "marker": "o", "filled": False},
+    CONTRADICTED: {"color": "#d73027", "marker": "s", "filled": True},
+    AGAINST: {"color": "#d73027", "marker": "s", "filled": False},
+    INCONCLUSIVE: {"color": "#7f7f7f", "marker": "D", "filled": True},
+    NO_CLAIM: {"color": "#404040", "marker": "x", "filled": True},
+}
+"""How ``differences_figure`` marks a comparison's verdict (``claims.aubc_differences``):
+green for DUIS, red against, grey undecided; hollow where the small-n rule reads it
+(fewer than 6 units: untested)."""
+
+DIFFERENCES_XLABEL = "DUIS − method, AUBC (points)"
+
+
+def _verdict_marker(ax, x: float, y: float, verdict: str, gid: str):
+    style = VERDICT_STYLES.get(verdict, VERDICT_STYLES[INCONCLUSIVE])
+    face = style["color"] if style["filled"] else "white"
+    (line,) = ax.plot(
+        [x],
+        [y],
+        linestyle="none",
+        marker=style["marker"],
+        markersize=7,
+        color=style["color"],
+        markerfacecolor=face,
+        markeredgecolor=style["color"],
+        zorder=3,
+        gid=gid,
+        label=verdict if verdict != NO_CLAIM else "in no claim",
+    )
+    return line
+
+
+def differences_figure(diffs: pd.DataFrame, *, dataset: str, metric: str = "", note: str = ""):
+    """A forest plot of DUIS − each budget method on the AUBC over the query rounds
+    (``spl_al.report.claims.aubc_differences``): per comparator its mean paired
+    difference (points) and 95% t-interval over the units (seeds, or encoders' means),
+    the marker saying the comparison's verdict under its family's claim
+    (``VERDICT_STYLES``, a legend), the comparators grouped under their family's
+    heading (the claim's verdict beside it), a line at zero. ``note``: added to the
+    title (a stand-in, the framework). Each marker's ``gid`` is its method, each
+    interval's ``METHOD:ci``, each heading's ``family:FAMILY``."""
+    rows = diffs.reset_index(drop=True)
+    n_lines = len(rows) + rows["family"].nunique() if not rows.empty else 1
+    fig = new_figure(7.2, 0.3 * n_lines + 2.0)
+    ax = fig.add_subplot()
+    if rows.empty:
+        ax.set_axis_off()
+        ax.set_title(
+            f"{dataset}{note}: no paired AUBC comparison of DUIS with another method",
+            fontsize=10,
+        )
+        return fit_texts(fig)
+    from matplotlib.transforms import blended_transform_factory
+
+    # the headings sit on rows of their own, from the left edge of the axes
+    across = blended_transform_factory(ax.transAxes, ax.transData)
+    ticks, labels, y = [], [], 0
+    handles = {}
+    for family, part in rows.groupby("family", sort=False):
+        first = part.iloc[0]
+        head = str(first["heading"])
+        if first["claim_verdict"]:
+            head += f" (claim: {first['claim_verdict']})"
+        ax.text(
+            0.01,
+            y,
+            head,
+            transform=across,
+            fontsize=8,
+            fontweight="bold",
+            fontstyle="italic",
+            va="center",
+            gid=f"family:{family}",
+        )
+        y += 1
+        for _, row in part.iterrows():
+            if np.isfinite(row["ci_low"]) and np.isfinite(row["ci_high"]):
+                style = VERDICT_STYLES.get(row["verdict"], VERDICT_STYLES[INCONCLUSIVE])
+                ax.hlines(
+                    y,
+                    row["ci_low"],
+                    row["ci_high"],
+                    color=style["color"],
+                    lw=1.6,
+                    gid=f"{row['method']}:ci",
+                )
+            line = _verdict_marker(ax, row["diff"], y, row["verdict"], str(row["method"]))
+            handles.setdefault(row["verdict"], line)
+            ticks.append(y)
+            labels.append(method_label(row["method"]))
+            y += 1
+        y += 0.4  # a gap between families
+    ax.axvline(0.0, color="black", lw=0.8, zorder=1)
+    ax.set_yticks(ticks, labels, fontsize=8)
+    ax.set_ylim(y - 0.4, -0.6)
+    lo = float(np.nanmin([rows["ci_low"].min(), rows["diff"].min(), 0.0]))
+    hi = float(np.nanmax([rows["ci_high"].max(), rows["diff"].max(), 0.0]))
+    pad = 0.08 * (hi - lo or 1.0)
+    ax.set_xlim(lo - pad, hi + pad)
+    ax.set_xlabel(DIFFERENCES_XLABEL)
+    ax.grid(axis="x", alpha=0.3)
+    order = [v for v in VERDICT_STYLES if v in handles]
+    fig.legend(
+        [handles[v] for v in order],
+        [handles[v].get_label() for v in order],
+        loc="outside lower center",
+        ncols=len(order),
+        fontsize=7,
+        frameon=False,
+    )
+    n, n_seeds, unit = int(rows["n"].max()), int(rows["n_seeds"].max()), rows["unit"].iloc[0]
+    over = f"n = {n} seeds" if unit == "seed" else f"n = {n} encoders' means ({n_seeds} seeds)"
+    span = f"query {rows['span'].iloc[0]}" if rows["span"].iloc[0] else "the query rounds"
+    what = f" of {METRIC_WORDS.get(metric, metric)}" if metric else ""
+    ax.set_title(
+        f"{dataset}{note}: DUIS − each method, AUBC{what} over {span}\n"
+        f"mean paired difference and 95% t-interval over {over}",
+        fontsize=10,
+    )
     return fit_texts(fig)
 
 

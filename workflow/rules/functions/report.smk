@@ -19,6 +19,35 @@ def budget_metrics_files(dataset):
     return metrics_files(dataset, set(budget.get("methods", [])))
 
 
+def budget_block(dataset, framework=SUPERVISED):
+    """The budget experiment of the dataset in ``framework`` as run ({} without one)."""
+    return experiments_of(config, dataset, METHODS, framework).get("budget") or {}
+
+
+def batch_runs(dataset):
+    """[method, seed, rounds] of every budget run whose queried frames
+    batch_conditions counts: the budget's methods and seeds, up to its rounds."""
+    budget = budget_block(dataset)
+    methods, seeds = budget.get("methods", []), set(budget.get("seeds", []))
+    return [
+        [method, seed, min(rounds, int(budget["rounds"]))]
+        for (method, seed), rounds in sorted(runs(dataset).items())
+        if method in methods and seed in seeds
+    ]
+
+
+def batch_labeled_files(dataset):
+    """Each run's labeled set at each round (round 0 first), in the order of
+    batch_runs: what the frames each query round added are read from."""
+    from types import SimpleNamespace
+
+    files = []
+    for method, seed, rounds in batch_runs(dataset):
+        w = SimpleNamespace(dataset=dataset, method=method, seed=str(seed))
+        files += [labeled_in_round(w, r) for r in range(rounds)]
+    return files
+
+
 def dataset_outputs(dataset):
     """What `all` asks of a dataset: its pictures, the supervised framework's outputs
     (spl_al.experiment.outputs), robustness maps, model cards and exports."""
