@@ -56,6 +56,8 @@ FIGURES = (
     ("curves", "budget", "budget curves, mean ± std over seeds"),
     ("level_curves", "levels", "budget curves per MSPPP level"),
     ("aubc", "aubc", "area under the budget curve per method: every seed, mean, 95% interval"),
+    ("differences", "differences", "DUIS − each method, AUBC: paired 95% intervals, verdicts"),
+    ("batch_conditions", "batch_conditions", "MSPPP and SBR make-up of each method's queries"),
     ("robustness_diff", "robustness_diff", "DUIS minus the best baseline over MSPPP x SBR"),
 )
 # claims.csv's verdicts a sentence names one by one (all are counted, in VERDICTS' order)
