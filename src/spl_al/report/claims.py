@@ -627,8 +627,9 @@ def aubc_differences(
     cmp: pd.DataFrame, selection: dict | None, claims_frame: pd.DataFrame | None = None
 ) -> pd.DataFrame:
     """DUIS − each budget method on the AUBC over the query rounds, grouped by the
-    declared families (``claim_registry.FAMILIES``, in their order; the budget methods
-    none holds last, family ``OTHERS``): one row per comparator, columns
+    declared families (``claim_registry.FAMILIES``, in their order), then DUIS's pairwise
+    claims (its inconsistency term over Syn+Diversity; family: the claim id), the budget
+    methods none holds last (family ``OTHERS``): one row per comparator, columns
     ``DIFFERENCE_COLUMNS``, the differences and intervals in points as
     ``comparisons.csv`` has them, oriented DUIS − method.
 
@@ -656,16 +657,7 @@ def aubc_differences(
         rows = _family_rows(cmp, spec, members) if members else aubc.iloc[0:0]
         if rows.empty:
             continue
-        favour = ((rows["direction"] > 0) & rows["resolved"].astype(bool)).to_numpy()
-        against = _against(rows).to_numpy()
-        verdict = np.where(against, CONTRADICTED, np.where(favour, SUPPORTED, INCONCLUSIVE))
-        rule = _rule(rows)
-        if rule == "small-n":
-            small = {SUPPORTED: AGREE, CONTRADICTED: AGAINST}
-            verdict = np.array([small.get(v, v) for v in verdict])
-        if not decided:
-            verdict[:] = INCONCLUSIVE
-        rows = rows.assign(verdict=verdict, rule=rule)
+        rows = _read_each(rows, decided)
         rows = rows.set_index("method_b").loc[[m for m in members if m in set(rows["method_b"])]]
         for method, row in rows.iterrows():
             seen.add(method)
@@ -674,6 +666,28 @@ def aubc_differences(
             out[-1].update(
                 claim_id=spec.claim_id, claim_verdict=claim_verdict.get(spec.claim_id, "")
             )
+    # DUIS against one method (its inconsistency term over Syn+Diversity): that claim's
+    # own verdict is the comparison's
+    for spec in CLAIMS:
+        if spec.pair is None or spec.pair[0] != FULL_METHOD or spec.experiment != "budget":
+            continue
+        rows = _with_full(aubc, [spec.pair[1]]) if not aubc.empty else aubc
+        if rows.empty or spec.pair[1] in seen:
+            continue
+        row = _read_each(rows, decided).iloc[0]
+        seen.add(spec.pair[1])
+        out.append(_difference(row, spec.pair[1], spec.claim_id, f"DUIS's {spec.what}"))
+        # the heading quotes the claim only where it was judged on this AUBC (without
+        # every part of the decomposition it is judged at the ablation's round)
+        judged_here = (
+            claim_verdict
+            and (
+                (claims_frame["claim_id"] == spec.claim_id)
+                & (claims_frame["experiment"] == "budget")
+            ).any()
+        )
+        verdict = claim_verdict.get(spec.claim_id, "") if judged_here else ""
+        out[-1].update(claim_id=spec.claim_id, claim_verdict=verdict)
     if not aubc.empty:
         rest = [m for m in (selection or {}) if m not in seen and m != FULL_METHOD]
         others = _with_full(aubc, rest)
@@ -684,6 +698,23 @@ def aubc_differences(
             out.append(_difference(row, method, OTHERS, FAMILY_HEADINGS[OTHERS]))
             out[-1].update(claim_id="", claim_verdict="")
     return pd.DataFrame(out, columns=list(DIFFERENCE_COLUMNS))
+
+
+def _read_each(rows: pd.DataFrame, decided: bool) -> pd.DataFrame:
+    """``rows`` (DUIS as A) with each comparison's own ``verdict`` under its claim's rule
+    and the ``rule`` read: for DUIS when resolved so, against it when ``_against``
+    (Holm over the rows from 6 units), else inconclusive; the small-n words below 6
+    units; inconclusive throughout where the run's precision decides nothing."""
+    favour = ((rows["direction"] > 0) & rows["resolved"].astype(bool)).to_numpy()
+    against = _against(rows).to_numpy()
+    verdict = np.where(against, CONTRADICTED, np.where(favour, SUPPORTED, INCONCLUSIVE))
+    rule = _rule(rows)
+    if rule == "small-n":
+        small = {SUPPORTED: AGREE, CONTRADICTED: AGAINST}
+        verdict = np.array([small.get(v, v) for v in verdict])
+    if not decided:
+        verdict[:] = INCONCLUSIVE
+    return rows.assign(verdict=verdict, rule=rule)
 
 
 def _difference(row, method: str, family: str, heading: str) -> dict:
