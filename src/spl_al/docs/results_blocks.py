@@ -479,45 +479,9 @@ def results_block(
     columns = {d: c for d, c in overview_columns(earlier or "").items() if d not in gone}
     sections: dict[str, list[str]] = {d: [s, ""] for d, s in kept.items()}
     for dataset in present:
-        summary = _summary(results, dataset)
-        lines: list[str] = []
-        sections[dataset] = lines
-        lines += [
-            f"## {dataset}",
-            "",
-            f"{_heading(results, dataset)}.",
-            "",
-        ]
-        for note in summary.get("notes", []):
-            lines += [f"*{note}*", ""]
-        for file_name, caption in figures.get(dataset, []):
-            lines += [f"![{dataset}: {caption}]({figures_dir}/{file_name})", ""]
-        for name, kind in TABLE_KINDS.items():
-            title = kind.title
-            table = _md_table(results, dataset, name)
-            if table:
-                lines += [f"### {dataset}: {title[:1].lower()}{title[1:]}", "", table, ""]
-        lines += _aubc_table(results, dataset, summary)
-        decomposition = _md_table(results, dataset, "decomposition")
-        if decomposition and not decomposition.startswith("**No decomposition"):
-            lines += [f"### {dataset}: what DUIS's gain is made of", "", decomposition, ""]
-        rows = claims(results, dataset)
-        if rows:
-            lines += [f"### {dataset}: claims", "", verdict_line(rows), ""]
-            table = _md_table(results, dataset, "claims")
-            if table:
-                summary_line = (
-                    f"Every claim on {dataset} ({len(rows)}): its verdict, reason, units "
-                    "needed and evidence"
-                )
-                lines += ["<details>", f"<summary>{summary_line}</summary>", "", table, ""]
-                lines += ["</details>", ""]
-        comparisons = _resolved_comparisons(results, dataset)
-        robustness = _robustness(results, dataset)
-        if comparisons or robustness:
-            lines += [f"### {dataset}: paired comparisons", "", *comparisons, ""]
-            if robustness:
-                lines += [*robustness, ""]
+        sections[dataset] = _dataset_section(
+            results, dataset, figures.get(dataset, []), figures_dir
+        )
     lines = [
         _generated_by(page, kept=list(kept), stamp=stamp, framework=framework),
         "",
@@ -529,6 +493,46 @@ def results_block(
     for dataset in _in_order(sections):
         lines += sections[dataset]
     return "\n".join(lines).rstrip()
+
+
+def _dataset_section(
+    results: Path, dataset: str, figures: list[tuple[str, str]], figures_dir: str
+) -> list[str]:
+    """One dataset's part of a page: heading, notes, figures, tables, AUBC,
+    decomposition, verdicts with the claims table folded, resolved comparisons."""
+    summary = _summary(results, dataset)
+    lines = [f"## {dataset}", "", f"{_heading(results, dataset)}.", ""]
+    for note in summary.get("notes", []):
+        lines += [f"*{note}*", ""]
+    for file_name, caption in figures:
+        lines += [f"![{dataset}: {caption}]({figures_dir}/{file_name})", ""]
+    for name, kind in TABLE_KINDS.items():
+        title = kind.title
+        table = _md_table(results, dataset, name)
+        if table:
+            lines += [f"### {dataset}: {title[:1].lower()}{title[1:]}", "", table, ""]
+    lines += _aubc_table(results, dataset, summary)
+    decomposition = _md_table(results, dataset, "decomposition")
+    if decomposition and not decomposition.startswith("**No decomposition"):
+        lines += [f"### {dataset}: what DUIS's gain is made of", "", decomposition, ""]
+    rows = claims(results, dataset)
+    if rows:
+        lines += [f"### {dataset}: claims", "", verdict_line(rows), ""]
+        table = _md_table(results, dataset, "claims")
+        if table:
+            summary_line = (
+                f"Every claim on {dataset} ({len(rows)}): its verdict, reason, units "
+                "needed and evidence"
+            )
+            lines += ["<details>", f"<summary>{summary_line}</summary>", "", table, ""]
+            lines += ["</details>", ""]
+    comparisons = _resolved_comparisons(results, dataset)
+    robustness = _robustness(results, dataset)
+    if comparisons or robustness:
+        lines += [f"### {dataset}: paired comparisons", "", *comparisons, ""]
+        if robustness:
+            lines += [*robustness, ""]
+    return lines
 
 
 def _aubc_table(results: Path, dataset: str, summary: dict) -> list[str]:

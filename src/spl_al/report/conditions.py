@@ -180,31 +180,7 @@ def batch_conditions_figure(table: pd.DataFrame, *, title: str):
         names = list(dict.fromkeys(part["bin"]))
         colours = _bin_colours(condition, names)
         for y, method in enumerate(methods):
-            left = 0.0
-            for _, row in part[part["method"] == method].iterrows():
-                share = 0.0 if not np.isfinite(row["share"]) else float(row["share"])
-                ax.barh(
-                    y,
-                    share,
-                    left=left,
-                    height=0.75,
-                    color=colours[row["bin"]],
-                    edgecolor="white",
-                    hatch="//" if method == POOL else None,
-                    gid=f"{method}|{condition}|{row['bin']}",
-                )
-                if share >= 0.1:
-                    dark = sum(colours[row["bin"]][:3]) < 1.5
-                    ax.text(
-                        left + share / 2,
-                        y,
-                        f"{100 * share:.0f}%",
-                        ha="center",
-                        va="center",
-                        fontsize=6.5,
-                        color="white" if dark else "black",
-                    )
-                left += share
+            _stacked_bar(ax, part[part["method"] == method], y, method, colours)
         edges = np.cumsum(part.loc[part["method"] == POOL, "share"].fillna(0).to_numpy())[:-1]
         for edge in edges:
             ax.axvline(edge, color="black", lw=0.8, linestyle="--", zorder=3)
@@ -234,6 +210,36 @@ def batch_conditions_figure(table: pd.DataFrame, *, title: str):
         fontsize=9,
     )
     return fit_texts(fig)
+
+
+def _stacked_bar(ax, rows: pd.DataFrame, y: float, method: str, colours: dict) -> None:
+    """One method's bar on ``ax`` at ``y``: a segment per bin's share (``rows`` in the
+    bins' order), the pool's hatched, each labelled where 10% or wider."""
+    left = 0.0
+    for _, row in rows.iterrows():
+        share = 0.0 if not np.isfinite(row["share"]) else float(row["share"])
+        ax.barh(
+            y,
+            share,
+            left=left,
+            height=0.75,
+            color=colours[row["bin"]],
+            edgecolor="white",
+            hatch="//" if method == POOL else None,
+            gid=f"{method}|{row['condition']}|{row['bin']}",
+        )
+        if share >= 0.1:
+            dark = sum(colours[row["bin"]][:3]) < 1.5
+            ax.text(
+                left + share / 2,
+                y,
+                f"{100 * share:.0f}%",
+                ha="center",
+                va="center",
+                fontsize=6.5,
+                color="white" if dark else "black",
+            )
+        left += share
 
 
 def _runs(table: pd.DataFrame, method: str) -> str:

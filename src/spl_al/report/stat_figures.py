@@ -143,6 +143,37 @@ def differences_figure(diffs: pd.DataFrame, *, dataset: str, metric: str = "", n
             fontsize=10,
         )
         return fit_texts(fig)
+    handles = _forest_rows(ax, rows)
+    lo = float(np.nanmin([rows["ci_low"].min(), rows["diff"].min(), 0.0]))
+    hi = float(np.nanmax([rows["ci_high"].max(), rows["diff"].max(), 0.0]))
+    pad = 0.08 * (hi - lo or 1.0)
+    ax.set_xlim(lo - pad, hi + pad)
+    ax.set_xlabel(DIFFERENCES_XLABEL)
+    ax.grid(axis="x", alpha=0.3)
+    order = [v for v in VERDICT_STYLES if v in handles]
+    fig.legend(
+        [handles[v] for v in order],
+        [handles[v].get_label() for v in order],
+        loc="outside lower center",
+        ncols=len(order),
+        fontsize=7,
+        frameon=False,
+    )
+    n, n_seeds, unit = int(rows["n"].max()), int(rows["n_seeds"].max()), rows["unit"].iloc[0]
+    over = f"n = {n} seeds" if unit == "seed" else f"n = {n} encoders' means ({n_seeds} seeds)"
+    span = f"query {rows['span'].iloc[0]}" if rows["span"].iloc[0] else "the query rounds"
+    what = f" of {METRIC_WORDS.get(metric, metric)}" if metric else ""
+    ax.set_title(
+        f"{dataset}{note}: DUIS − each method, AUBC{what} over {span}\n"
+        f"mean paired difference and 95% t-interval over {over}",
+        fontsize=10,
+    )
+    return fit_texts(fig)
+
+
+def _forest_rows(ax, rows: pd.DataFrame) -> dict:
+    """Draw each family's heading on a row of its own, then its comparators' intervals
+    and markers, a line at zero; {verdict: a marker of it} for the legend."""
     from matplotlib.transforms import blended_transform_factory
 
     # the headings sit on rows of their own, from the left edge of the axes
@@ -186,31 +217,7 @@ def differences_figure(diffs: pd.DataFrame, *, dataset: str, metric: str = "", n
     ax.axvline(0.0, color="black", lw=0.8, zorder=1)
     ax.set_yticks(ticks, labels, fontsize=8)
     ax.set_ylim(y - 0.4, -0.6)
-    lo = float(np.nanmin([rows["ci_low"].min(), rows["diff"].min(), 0.0]))
-    hi = float(np.nanmax([rows["ci_high"].max(), rows["diff"].max(), 0.0]))
-    pad = 0.08 * (hi - lo or 1.0)
-    ax.set_xlim(lo - pad, hi + pad)
-    ax.set_xlabel(DIFFERENCES_XLABEL)
-    ax.grid(axis="x", alpha=0.3)
-    order = [v for v in VERDICT_STYLES if v in handles]
-    fig.legend(
-        [handles[v] for v in order],
-        [handles[v].get_label() for v in order],
-        loc="outside lower center",
-        ncols=len(order),
-        fontsize=7,
-        frameon=False,
-    )
-    n, n_seeds, unit = int(rows["n"].max()), int(rows["n_seeds"].max()), rows["unit"].iloc[0]
-    over = f"n = {n} seeds" if unit == "seed" else f"n = {n} encoders' means ({n_seeds} seeds)"
-    span = f"query {rows['span'].iloc[0]}" if rows["span"].iloc[0] else "the query rounds"
-    what = f" of {METRIC_WORDS.get(metric, metric)}" if metric else ""
-    ax.set_title(
-        f"{dataset}{note}: DUIS − each method, AUBC{what} over {span}\n"
-        f"mean paired difference and 95% t-interval over {over}",
-        fontsize=10,
-    )
-    return fit_texts(fig)
+    return handles
 
 
 def heatmap_figure(cells: pd.DataFrame, *, note: str = ""):
