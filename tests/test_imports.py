@@ -27,7 +27,15 @@ LAYERS: list[tuple[str, list[str]]] = [
     ("workflow steps", ["spl_al.experiment", "spl_al.warm"]),
     ("outputs", ["spl_al.deploy", "spl_al.labeling", "spl_al.report"]),
     ("round 0", ["spl_al.cold_start"]),
-    ("active learning", ["spl_al.pool", "spl_al.query", "spl_al.scoring", "spl_al.linear_probe"]),
+    (
+        "active learning",
+        [
+            "spl_al.pool",
+            "spl_al.round_query",
+            "spl_al.scoring",
+            "spl_al.linear_probe",
+        ],
+    ),
     ("learning", ["spl_al.strategies", "spl_al.training"]),
     ("models", ["spl_al.models"]),
     ("data", ["spl_al.data"]),

@@ -13,7 +13,7 @@ package and the layers below it):
   Studio).
 - round 0: ``spl_al.cold_start`` (random, stratified, or a first batch without labels).
 - active learning: ``spl_al.pool`` (labeled sets, the simulated oracle),
-  ``spl_al.query`` (a round's query), ``spl_al.scoring`` (the forward passes a strategy
+  ``spl_al.round_query`` (a round's query), ``spl_al.scoring`` (the forward passes a strategy
   needs), ``spl_al.linear_probe`` (the embedding framework's classifier).
 - learning: ``spl_al.strategies`` (every acquisition strategy behind one registry),
   ``spl_al.training`` (training, evaluation, precision, the self-supervised encoder).
