@@ -23,7 +23,7 @@ ROOT = Path(__file__).resolve().parents[1]
 SRC = ROOT / "src"
 
 LAYERS: list[tuple[str, list[str]]] = [
-    ("tools", ["spl_al.__main__", "spl_al.bench", "spl_al.docs"]),
+    ("tools", ["spl_al.__main__", "spl_al.bench", "spl_al.docs", "spl_al.query_frames"]),
     ("workflow steps", ["spl_al.experiment", "spl_al.warm"]),
     ("outputs", ["spl_al.deploy", "spl_al.labeling", "spl_al.report"]),
     ("round 0", ["spl_al.cold_start"]),

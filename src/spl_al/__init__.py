@@ -8,8 +8,9 @@ Areas, top layer first (docs/design.md is the map; a module imports only its own
 package and the layers below it):
 
 - tools: ``spl_al.bench`` (benchmarks that print tables: ``python -m spl_al.bench
-  NAME``), ``spl_al.docs`` (the generated docs pages and README blocks), ``python -m
-  spl_al export|predict`` (``__main__``).
+  NAME``), ``spl_al.docs`` (the generated docs pages and README blocks), ``spl-al
+  estimate|reconstruct|export|predict|query`` (``__main__``; ``spl_al.query_frames``:
+  a trained model picks a folder's next labeling batch).
 - workflow steps: ``spl_al.experiment`` (the plan of a config, one function per rule,
   what `all` asks for), ``spl_al.warm`` (how a job runs: the warm job server).
 - outputs: ``spl_al.report`` (tables, curves, statistics, claims), ``spl_al.deploy``
