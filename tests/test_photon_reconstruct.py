@@ -143,6 +143,22 @@ def test_skipping_the_photons_that_cannot_count_changes_no_number(scene, sensor,
                     assert np.array_equal(a, b, equal_nan=True), (msppp, sbr, method, field)
 
 
+def test_shifted_views_are_the_shifted_copies():
+    """The pooled choice and the 3x3 filters read shifted images as views of one padded
+    copy (``_at``), the same values as ``_shift``'s copies."""
+    module = importlib.import_module("spl_al.photon.reconstruct")
+    rng = np.random.default_rng(0)
+    ints = rng.integers(-1, 50, (5, 7))
+    floats = np.where(rng.random((5, 7)) < 0.2, np.nan, rng.normal(size=(5, 7)))
+    for image, fill in ((ints, -1), (floats, np.nan), (floats, 0.0)):
+        padded = module._padded(image, fill, 2)
+        for dy in range(-2, 3):
+            for dx in range(-2, 3):
+                view = module._at(padded, 2, dy, dx)
+                assert view.dtype == image.dtype
+                np.testing.assert_array_equal(view, module._shift(image, dy, dx, fill))
+
+
 def test_synthesize_variants_are_each_frames_own(scene):
     """A frame's variants come from its own generator: the same alone or in a batch,
     the same as ``synthesize_variant`` on the whole frame (the crop changes nothing),

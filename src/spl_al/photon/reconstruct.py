@@ -246,6 +246,21 @@ def _shift(image: np.ndarray, dy: int, dx: int, fill):
 _OFFSETS_3 = [(dy, dx) for dy in (-1, 0, 1) for dx in (-1, 0, 1)]
 
 
+def _padded(image: np.ndarray, fill, r: int) -> np.ndarray:
+    """``image`` inside a border of ``r`` pixels of ``fill``, for ``_at``."""
+    rows, cols = image.shape
+    out = np.full((rows + 2 * r, cols + 2 * r), fill, dtype=image.dtype)
+    out[r : r + rows, r : r + cols] = image
+    return out
+
+
+def _at(padded: np.ndarray, r: int, dy: int, dx: int) -> np.ndarray:
+    """``_shift(image, dy, dx, fill)`` as a view of ``_padded(image, fill, r)``, |dy|,
+    |dx| <= r (no copy)."""
+    rows, cols = padded.shape[0] - 2 * r, padded.shape[1] - 2 * r
+    return padded[r + dy : r + dy + rows, r + dx : r + dx + cols]
+
+
 def _pooled_choice(photons, like, best_bin, best_score, shape, margin_photons):
     """Neighbourhood-aided depth bin per pixel (-1 where the pixel has no photon).
 
@@ -255,19 +270,19 @@ def _pooled_choice(photons, like, best_bin, best_score, shape, margin_photons):
     rows, cols = shape
     cand = best_bin.reshape(shape)
     has_photons = cand >= 0
+    cand_at = _padded(cand, -1, 2)
+    window = np.stack([_at(cand_at, 2, oy, ox) for oy in range(-2, 3) for ox in range(-2, 3)])
     # Every bin scored below is a candidate of the 5x5 window: only photons within a
     # window of the window's lowest to highest candidate can count.
     w, far = like.half_window, np.iinfo(np.int32).max // 4
-    lo, hi = np.full(shape, far, np.int64), np.full(shape, -far, np.int64)
-    for oy in range(-2, 3):
-        for ox in range(-2, 3):
-            shifted = _shift(cand, oy, ox, -1)
-            lo = np.where(shifted >= 0, np.minimum(lo, shifted), lo)
-            hi = np.maximum(hi, shifted)
+    lo = np.where(window >= 0, window, far).min(axis=0)
+    hi = np.maximum(window.max(axis=0), -far)
     photons = _within(photons, (lo - w).ravel(), np.where(hi >= 0, hi + w, -far).ravel())
     # partial[(oy, ox)][q] = score of q's photons at the candidate of pixel q + o, |o| <= 2.
     partial = {
-        (oy, ox): _score_at(photons, like, _shift(cand, oy, ox, -1).ravel()).reshape(shape)
+        (oy, ox): _padded(
+            _score_at(photons, like, _at(cand_at, 2, oy, ox).ravel()).reshape(shape), 0.0, 1
+        )
         for oy in range(-2, 3)
         for ox in range(-2, 3)
     }
@@ -276,14 +291,14 @@ def _pooled_choice(photons, like, best_bin, best_score, shape, margin_photons):
     for k, (cy, cx) in enumerate(_OFFSETS_3):
         total = np.zeros(shape)
         for oy, ox in _OFFSETS_3:
-            total += _shift(partial[(cy - oy, cx - ox)], oy, ox, 0.0)
-        exists = _shift(cand, cy, cx, -1) >= 0
+            total += _at(partial[(cy - oy, cx - ox)], 1, oy, ox)
+        exists = _at(cand_at, 2, cy, cx) >= 0
         pooled[k][exists] = total[exists]
     k_best = np.argmax(pooled, axis=0)
     choice = np.full(shape, -1, dtype=np.int64)
     for k, (cy, cx) in enumerate(_OFFSETS_3):
         pick = k_best == k
-        choice[pick] = _shift(cand, cy, cx, -1)[pick]
+        choice[pick] = _at(cand_at, 2, cy, cx)[pick]
     choice[~has_photons] = -1
     # Own evidence overrides the neighbourhood only by a clear margin.
     own_at_choice = _score_at(photons, like, choice.ravel())
@@ -309,7 +324,8 @@ def _window_support(photons: _SortedPhotons, half_window: int, centre: np.ndarra
 
 def _median3(image: np.ndarray) -> np.ndarray:
     """3x3 median over finite values (NaN = void is ignored; all-void windows give NaN)."""
-    stack = np.sort(np.stack([_shift(image, dy, dx, np.nan) for dy, dx in _OFFSETS_3]), axis=0)
+    padded = _padded(image, np.nan, 1)
+    stack = np.sort(np.stack([_at(padded, 1, dy, dx) for dy, dx in _OFFSETS_3]), axis=0)
     n = np.isfinite(stack).sum(axis=0)  # np.sort puts NaN last
     lo = np.take_along_axis(stack, np.maximum(n - 1, 0)[None] // 2, axis=0)[0]
     hi = np.take_along_axis(stack, (n // 2)[None], axis=0)[0]
@@ -317,8 +333,12 @@ def _median3(image: np.ndarray) -> np.ndarray:
 
 
 def _mean3(image: np.ndarray, weight: np.ndarray) -> np.ndarray:
-    num = sum(_shift(image * weight, dy, dx, 0.0) for dy, dx in _OFFSETS_3)
-    den = sum(_shift(weight.astype(np.float64), dy, dx, 0.0) for dy, dx in _OFFSETS_3)
+    image_at, weight_at = (
+        _padded(image * weight, 0.0, 1),
+        _padded(weight.astype(np.float64), 0.0, 1),
+    )
+    num = sum(_at(image_at, 1, dy, dx) for dy, dx in _OFFSETS_3)
+    den = sum(_at(weight_at, 1, dy, dx) for dy, dx in _OFFSETS_3)
     return np.where(den > 0, num / np.maximum(den, 1e-300), 0.0)
 
 
