@@ -131,8 +131,8 @@ def test_batches_bound_predict_and_change_no_pick():
     depth, valid = frames()
     small, large = Counted(Classifier()), Counted(Classifier())
     kw = {"labeled": LABELED, "budget": 4, "seed": 2}
-    a = spl_al.query("duis", small, depth, valid, batch_size=7, **kw)
-    b = spl_al.query("duis", large, depth, valid, batch_size=256, **kw)
+    a = run(Request("duis", small, depth, valid, batch_size=7, **kw)).indices
+    b = spl_al.query("duis", large, depth, valid, **kw)  # 256 frames a call
     np.testing.assert_array_equal(a, b)
     assert small.largest <= 7 and small.frames == large.frames
 
@@ -212,9 +212,7 @@ def test_bad_requests_are_refused_in_one_sentence():
         spl_al.query("margin", logits, depth, valid, labeled=LABELED, budget=3)
     one_sentence(str(err.value))
     with pytest.raises(ValueError, match=r"expected \(8, C\) or \(8, C, 16, 16\)"):
-        spl_al.query(
-            "margin", lambda d, v: np.ones(len(d)), depth, valid, labeled=[], budget=1, batch_size=8
-        )
+        run(Request("margin", lambda d, v: np.ones(len(d)), depth, valid, budget=1, batch_size=8))
 
 
 def test_import_spl_al_stays_cheap_and_query_is_the_acquire_function():

@@ -6,7 +6,8 @@ with the user's own ``predict`` function. ``Request`` holds every option and ``r
 returns a ``Selection`` (the indices, how many frames ``predict`` saw, where the time
 went).
 
-``predict(depth_m, valid)`` takes a batch of at most ``batch_size`` frames, depth
+``predict(depth_m, valid)`` takes a batch of at most ``Request.batch_size`` frames (256
+by default: memory stays bounded whatever the pool), depth
 (B, H, W) float32 in metres with NaN at voids and the (B, H, W) bool mask of the
 pixels with a return, and returns class probabilities (B, C), or per-pixel
 probabilities (B, C, H, W) for segmentation, or a tuple (probabilities, features)
@@ -151,7 +152,6 @@ def query(
     params: dict | None = None,
     sensor: SensorParams | None = None,
     reflectance=None,
-    batch_size: int = DEFAULT_BATCH_SIZE,
 ) -> np.ndarray:
     """The ``budget`` frames strategy ``method`` picks for labeling (module docstring).
 
@@ -169,7 +169,6 @@ def query(
         params: the strategy's parameters, e.g. ``{"n_cand": 24}``.
         sensor: the SPL timing of DUIS's variants (None: the paper's scanning sensor).
         reflectance: (N, H, W) reflectance of the frames (None: uniform).
-        batch_size: frames per call of ``predict``.
 
     Returns:
         (budget,) int64 distinct indices into the frames, none of them in ``labeled``.
@@ -189,7 +188,6 @@ def query(
         params=params,
         sensor=sensor,
         reflectance=reflectance,
-        batch_size=batch_size,
     )
     return run(request).indices
 
@@ -270,6 +268,7 @@ class _Model:
         self.predict, self.batch_size = predict, int(batch_size)
         self.frames, self.seconds = 0, 0.0
         self.task, self.n_classes, self.has_features = "", 0, None
+        self.pixel_features = False  # features (B, D, H, W) of a segmenter
 
     def __call__(self, depth: np.ndarray, valid: np.ndarray):
         """(probs (n, C) or (n, C, H, W), features (n, D[, H, W]) or None)."""
@@ -308,6 +307,7 @@ class _Model:
                 raise ValueError("predict returned features that are not all finite.")
         if self.has_features is None:
             self.has_features = feats is not None
+            self.pixel_features = feats is not None and feats.ndim == 4
         elif self.has_features != (feats is not None):
             raise ValueError("predict returned features for some frames and not for others.")
         return probs, feats
@@ -344,6 +344,11 @@ def _refusal(method: str, needs: frozenset, model: _Model, head) -> str | None:
             f"{method} needs features from predict (its gradient embedding is built on "
             "them), but predict returned probabilities only; return (probabilities, "
             "features (B, D)) or choose another method."
+        )
+    if "grad_embedding" in needs and model.task == "segmentation" and not model.pixel_features:
+        return (
+            f"{method} on a segmenter needs per-pixel features (B, D, H, W) from predict, "
+            "but predict returned (B, D) features."
         )
     if "head" in needs and model.task == "segmentation":
         return f"{method} reads a classifier's last layer: it is for classification only."
@@ -444,29 +449,42 @@ def run(request: Request) -> Selection:
     budget = _budget(request.budget, n, len(labeled))
     unlabeled = np.setdiff1d(np.arange(n), labeled)
     strategy = _strategy(request.method, request.params, len(unlabeled))
-    needs = frozenset(strategy.needs)
     model = _Model(request.predict, request.batch_size)
     n_variants = int(request.n_variants)
     if n_variants < 1:
         raise ValueError(f"n_variants must be an integer >= 1, got {request.n_variants!r}.")
     groups = _Groups(request, model, depth, valid, refl, n_variants)
+    arrays = _inputs(request, frozenset(strategy.needs), groups, unlabeled, labeled)
+    _fill_required(strategy, model)
+    inputs = StrategyInputs(unlabeled_idx=unlabeled, labeled_idx=labeled, **arrays)
+    select_start = time.perf_counter()
+    picked = strategy.select(inputs, budget, acquire_rng(request.seed))
+    picks = check_picks(request.method, picked, inputs, budget)
+    now = time.perf_counter()
+    seconds = {
+        "predict": model.seconds,
+        "variants": groups.variant_seconds,
+        "select": now - select_start,
+        "total": now - start,
+    }
+    return Selection(picks, model.frames, seconds, model.task)
+
+
+def _inputs(request: Request, needs: frozenset, groups: _Groups, unlabeled, labeled) -> dict:
+    """The arrays of the StrategyInputs ``needs`` asks for: the unlabeled frames (with
+    their variants for DUIS's group needs) through ``predict`` chunk by chunk, reduced
+    to per-frame scores and features at once, then the labeled frames' features."""
+    model = groups.model
     with_variants = bool(needs & GROUP_NEEDS)
-    images = 1 + n_variants if with_variants else 1
-    per_call = max(1, request.batch_size // images)
+    per_call = max(1, request.batch_size // (1 + groups.n_variants if with_variants else 1))
     scored = needs - {"labeled_features", "head"}
     parts: dict[str, list[np.ndarray]] = {}
     for s in range(0, len(unlabeled) if scored else 0, per_call):
         probs, feats, pix, image_valid = groups.outputs(
             unlabeled[s : s + per_call], with_variants, pixel_features="grad_embedding" in needs
         )
-        if s == 0:
+        if s == 0:  # the first answer tells what predict gives: refuse before the rest
             _refuse(request, needs, model)
-            if model.task == "segmentation" and "grad_embedding" in needs and pix is None:
-                raise ValueError(
-                    f"{request.method} on a segmenter needs per-pixel features (B, D, H, W) "
-                    "from predict, but predict returned "
-                    + ("(B, D) features." if model.has_features else "probabilities only.")
-                )
         for name, value in scores_from_outputs(
             scored, model.task, probs, feats, pix_feats=pix, image_valid=image_valid
         ):
@@ -483,19 +501,7 @@ def run(request: Request) -> Selection:
         arrays[name] = value.astype(np.float32) if value.ndim == 2 else value.astype(np.float64)
     if "head" in needs:
         arrays.update(_head(request.head, arrays))
-    _fill_required(strategy, model)
-    inputs = StrategyInputs(unlabeled_idx=unlabeled, labeled_idx=labeled, **arrays)
-    select_start = time.perf_counter()
-    picked = strategy.select(inputs, budget, acquire_rng(request.seed))
-    picks = check_picks(request.method, picked, inputs, budget)
-    now = time.perf_counter()
-    seconds = {
-        "predict": model.seconds,
-        "variants": groups.variant_seconds,
-        "select": now - select_start,
-        "total": now - start,
-    }
-    return Selection(picks, model.frames, seconds, model.task)
+    return arrays
 
 
 def _refuse(request: Request, needs: frozenset, model: _Model) -> None:

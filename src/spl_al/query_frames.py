@@ -175,86 +175,77 @@ def _frames_array(frames, fixed_shape) -> np.ndarray:
     return np.stack([f.depth_m for f in frames]).astype(np.float32)
 
 
-def query_frames(
-    model,
-    frames_dir,
-    out,
-    *,
-    budget: int,
-    method: str = "duis",
-    labeled=(),
-    params: dict | None = None,
-    seed: int = 0,
-    card=None,
-    classes=None,
-    labels_file=None,
-    overrides: dict | None = None,
-    depth_key: str = RELEASE_DEPTH_KEY,
-    weights=None,
-    sensor: SensorParams | None = None,
-    n_variants: int = DEFAULT_N_VARIANTS,
-    batch_size: int = DEFAULT_BATCH_SIZE,
-    log=print,
-) -> Path:
-    """Pick ``budget`` frames of ``frames_dir`` with ``method`` and ``model``; write their
-    labeling batch to ``out`` (module docstring). Returns ``out``.
+@dataclass
+class FolderQuery:
+    """One ``spl-al query`` (module docstring).
 
-    ``labels_file``: where the filled ``to_label.csv`` is to be saved (default
-    ``{out}.csv`` beside the batch); ``sensor``: DUIS's variants' sensor (default the
-    card's, else the paper's scanning sensor); ``overrides``, ``depth_key``,
-    ``weights``: as ``spl-al predict``'s.
+    Attributes:
+        model, frames, out: the model file, the folder of frames, the batch folder.
+        budget, method, params, seed: how many frames, which strategy, its parameters,
+            the seed of every random choice.
+        labeled: CSV files listing the frames labeled already (column ``file``).
+        card, classes: the model's card (default beside it); class names in output
+            order (an ONNX file without a card).
+        labels_file: where the filled ``to_label.csv`` is to be saved (default
+            ``{out}.csv`` beside the batch).
+        overrides, depth_key, weights: how frames are read, as ``spl-al predict``'s.
+        sensor: DUIS's variants' sensor (default the card's, else the paper's scanning
+            sensor); n_variants: their number, M; batch_size: frames per forward pass.
     """
-    out = Path(out)
+
+    model: str | Path
+    frames: str | Path
+    out: str | Path
+    budget: int
+    method: str = "duis"
+    labeled: tuple = ()
+    params: dict | None = None
+    seed: int = 0
+    card: str | Path | None = None
+    classes: list[str] | None = None
+    labels_file: str | Path | None = None
+    overrides: dict | None = None
+    depth_key: str = RELEASE_DEPTH_KEY
+    weights: str | Path | None = None
+    sensor: SensorParams | None = None
+    n_variants: int = DEFAULT_N_VARIANTS
+    batch_size: int = DEFAULT_BATCH_SIZE
+
+
+def query_frames(job: FolderQuery, log=print) -> Path:
+    """Pick ``job.budget`` frames of ``job.frames`` with ``job.method`` and ``job.model``;
+    write their labeling batch to ``job.out`` (module docstring). Returns the folder."""
+    out = Path(job.out)
     if out.exists() and not (out / "to_label.csv").is_file() and any(out.iterdir()):
         raise ValueError(f"{out}: exists and holds no to_label.csv; give an empty or new folder.")
-    scorer = open_scorer(model, card=card, classes=classes)
+    scorer = open_scorer(job.model, card=job.card, classes=job.classes)
     reconstruction = ((scorer.card or {}).get("data") or {}).get("reconstruction")
-    options = capture_options(reconstruction, overrides)
-    frames = read_frames([frames_dir], options, depth_key, weights)
+    options = capture_options(reconstruction, job.overrides)
+    frames = read_frames([job.frames], options, job.depth_key, job.weights)
     depth = _frames_array(frames, scorer.fixed_shape)
-    names = [f.name for f in frames]
-    known = labeled_frames(labeled, names)
-    sensor = sensor or scorer.sensor
+    known = labeled_frames(job.labeled, [f.name for f in frames])
     request = Request(
-        method=method,
+        method=job.method,
         predict=scorer.predict,
         depth_m=depth,
         valid=np.isfinite(depth) & (depth > 0),
         labeled=known,
-        budget=budget,
-        seed=seed,
-        params=params,
-        sensor=sensor,
-        batch_size=batch_size,
-        n_variants=n_variants,
+        budget=job.budget,
+        seed=job.seed,
+        params=job.params,
+        sensor=job.sensor or scorer.sensor,
+        batch_size=job.batch_size,
+        n_variants=job.n_variants,
     )
     picked = run(request).indices
-    probs, _ = _split(scorer.predict(depth[picked], request.valid[picked]))
-    task = "segmentation" if probs.ndim == 4 else "classification"
-    n_classes = probs.shape[1]
-    class_names = scorer.classes or []
-    if len(class_names) != n_classes:
-        raise ValueError(
-            f"{scorer.name} gives {n_classes} classes but {len(class_names)} names are known "
-            f"({','.join(class_names)})."
-        )
-    variants = None
-    if frozenset(get(method, **(params or {})).needs) & GROUP_NEEDS:
-        variants = synthesize_variants(
-            depth[picked],
-            request.valid[picked],
-            default_conditions(n_variants),
-            rng=[sample_rng(seed, STREAM_VARIANT, int(i)) for i in picked],
-            sensor=sensor,
-        )
-    batch = _batch_dataset(frames, picked, depth, task, class_names, variants, n_variants)
-    labels_file = Path(labels_file) if labels_file else out.with_name(f"{out.name}.csv")
+    batch, probs = _batch(request, scorer, frames, picked)
+    labels_file = Path(job.labels_file) if job.labels_file else out.with_name(f"{out.name}.csv")
+    unlabeled = len(frames) - len(known)
     chosen = (
-        f"These {len(picked)} frames were chosen by {method}"
-        + (f" ({json.dumps(params, sort_keys=True)})" if params else "")
-        + f", seed {seed}, from the {len(frames) - len(known)} unlabeled frames of "
-        f"{frames_dir} ({len(known)} labeled), scored by {scorer.name}; no label was read "
-        "to choose them."
+        f"These {len(picked)} frames were chosen by {job.method}"
+        + (f" ({json.dumps(job.params, sort_keys=True)})" if job.params else "")
+        + f", seed {job.seed}, from the {unlabeled} unlabeled frames of {job.frames} "
+        f"({len(known)} labeled), scored by {scorer.name}; no label was read to choose them."
     )
     write_batch(
         batch,
@@ -267,11 +258,38 @@ def query_frames(
         then="train your model on them, and give the file to --labeled of the next query",
     )
     log(
-        f"{out}: {len(picked)} of {len(frames) - len(known)} unlabeled frames to label, "
-        f"chosen by {method} with {scorer.name}; fill in {out / 'to_label.csv'} and save it "
-        f"as {labels_file}, or label {out / 'label_studio.json'} in Label Studio"
+        f"{out}: {len(picked)} of {unlabeled} unlabeled frames to label, chosen by "
+        f"{job.method} with {scorer.name}; fill in {out / 'to_label.csv'} and save it as "
+        f"{labels_file}, or label {out / 'label_studio.json'} in Label Studio"
     )
     return out
+
+
+def _batch(request: Request, scorer: Scorer, frames, picked) -> tuple[Dataset, np.ndarray]:
+    """The picked frames as a labeling batch's ``Dataset`` (with the variants DUIS saw,
+    for its pictures) and the model's probabilities of them (the pre-annotations)."""
+    depth = np.asarray(request.depth_m)
+    valid = np.asarray(request.valid)
+    probs, _ = _split(scorer.predict(depth[picked], valid[picked]))
+    classes = scorer.classes or []
+    if len(classes) != probs.shape[1]:
+        raise ValueError(
+            f"{scorer.name} gives {probs.shape[1]} classes but {len(classes)} names are known "
+            f"({','.join(classes)})."
+        )
+    variants = None
+    if frozenset(get(request.method, **(request.params or {})).needs) & GROUP_NEEDS:
+        variants = synthesize_variants(
+            depth[picked],
+            valid[picked],
+            default_conditions(request.n_variants),
+            rng=[sample_rng(request.seed, STREAM_VARIANT, int(i)) for i in picked],
+            sensor=request.sensor,
+        )
+    task = "segmentation" if probs.ndim == 4 else "classification"
+    return _batch_dataset(
+        frames, picked, depth, task=task, classes=classes, variants=variants
+    ), probs
 
 
 def _split(out):
@@ -280,7 +298,7 @@ def _split(out):
     return np.asarray(out), None
 
 
-def _batch_dataset(frames, picked, depth, task, classes, variants, n_variants) -> Dataset:
+def _batch_dataset(frames, picked, depth, *, task, classes, variants) -> Dataset:
     """The picked frames as the ``Dataset`` a labeling batch is written from: unlabeled,
     every frame in the training pool, its sample id its position in the folder."""
     k = len(picked)
@@ -292,7 +310,7 @@ def _batch_dataset(frames, picked, depth, task, classes, variants, n_variants) -
     )
     extra = {}
     if variants is not None:
-        conds = np.array([list(c) for c in default_conditions(n_variants)])
+        conds = np.array([list(c) for c in default_conditions(variants.shape[1])])
         extra = {
             "variant_depth_m": variants,
             "variant_msppp": np.tile(conds[:, 0], (k, 1)),
@@ -353,23 +371,25 @@ def main(argv: list[str] | None = None) -> int:
     args = parser.parse_args(argv)
     try:
         query_frames(
-            args.model,
-            args.frames,
-            args.out,
-            budget=args.budget,
-            method=args.method,
-            labeled=args.labeled,
-            params=_params(args.params),
-            seed=args.seed,
-            card=args.card,
-            classes=[c.strip() for c in args.classes.split(",")] if args.classes else None,
-            labels_file=args.labels_file,
-            overrides=overrides_of(args),
-            depth_key=args.depth_key,
-            weights=args.weights,
-            sensor=getattr(SensorParams, args.sensor)() if args.sensor else None,
-            n_variants=args.n_variants,
-            batch_size=args.batch_size,
+            FolderQuery(
+                args.model,
+                args.frames,
+                args.out,
+                args.budget,
+                method=args.method,
+                labeled=tuple(args.labeled),
+                params=_params(args.params),
+                seed=args.seed,
+                card=args.card,
+                classes=[c.strip() for c in args.classes.split(",")] if args.classes else None,
+                labels_file=args.labels_file,
+                overrides=overrides_of(args),
+                depth_key=args.depth_key,
+                weights=args.weights,
+                sensor=getattr(SensorParams, args.sensor)() if args.sensor else None,
+                n_variants=args.n_variants,
+                batch_size=args.batch_size,
+            )
         )
     except (ValueError, OSError) as exc:
         print(f"error: {exc}", file=sys.stderr)

@@ -92,41 +92,17 @@ def variant_costs(depth, valid, n_frames: int, sensor: SensorParams) -> list[lis
     return rows
 
 
-def main(argv: list[str]) -> int:
-    """Time one DUIS query over a pool; print the tables; the exit code."""
-    parser = argparse.ArgumentParser(prog="python -m spl_al.bench query", description=__doc__)
-    parser.add_argument("--frames", type=int, default=1000, help="frames in the pool (N)")
-    parser.add_argument("--budget", type=int, default=20, help="frames to pick")
-    parser.add_argument("--labeled", type=int, default=20, help="frames labeled already")
-    parser.add_argument("--seed", type=int, default=0)
-    parser.add_argument("--batch-size", type=int, default=256, help="frames per predict call")
-    parser.add_argument("--profile-frames", type=int, default=50, help="frames of table 2")
-    args = parser.parse_args(argv)
-    if args.frames <= args.labeled + args.budget:
-        parser.error("--frames must exceed --labeled + --budget")
+def print_split(selection, n_frames: int, n_labeled: int, valid: np.ndarray) -> None:
+    """The first table: the query's wall time by part, and the share outside predict."""
     # torch on demand (importing this module does not load it)
     import torch
 
-    depth, valid = pool(args.frames, args.seed)
-    predict = smallcnn_predict()
-    predict(depth[:8], valid[:8])  # warm-up: torch's first call
-    request = Request(
-        "duis",
-        predict,
-        depth,
-        valid,
-        labeled=np.arange(args.labeled),
-        budget=args.budget,
-        seed=args.seed,
-        batch_size=args.batch_size,
-    )
-    selection = run(request)
     s = selection.seconds
     outside = s["total"] - s["predict"]
     other = outside - s["variants"] - s["select"]
-    unlabeled = args.frames - args.labeled
+    unlabeled = n_frames - n_labeled
     print(
-        f"## spl_al.query, DUIS (M = 4), {args.frames} frames of 64x64 "
+        f"## spl_al.query, DUIS (M = 4), {n_frames} frames of 64x64 "
         f"({unlabeled} unlabeled), SmallCNN as predict\n\n"
         f"{cpu_name()}, {os.cpu_count()} cores, torch {torch.get_num_threads()} threads, load "
         f"average {os.getloadavg()[0]:.2f} at the end, {time.strftime('%Y-%m-%d')}; "
@@ -151,6 +127,35 @@ def main(argv: list[str]) -> int:
         f"\nOverhead (outside predict) {outside / s['total']:.0%} of the whole "
         "(goal: at most 25%).\n"
     )
+
+
+def main(argv: list[str]) -> int:
+    """Time one DUIS query over a pool; print the tables; the exit code."""
+    parser = argparse.ArgumentParser(prog="python -m spl_al.bench query", description=__doc__)
+    parser.add_argument("--frames", type=int, default=1000, help="frames in the pool (N)")
+    parser.add_argument("--budget", type=int, default=20, help="frames to pick")
+    parser.add_argument("--labeled", type=int, default=20, help="frames labeled already")
+    parser.add_argument("--seed", type=int, default=0)
+    parser.add_argument("--batch-size", type=int, default=256, help="frames per predict call")
+    parser.add_argument("--profile-frames", type=int, default=50, help="frames of table 2")
+    args = parser.parse_args(argv)
+    if args.frames <= args.labeled + args.budget:
+        parser.error("--frames must exceed --labeled + --budget")
+    depth, valid = pool(args.frames, args.seed)
+    predict = smallcnn_predict()
+    predict(depth[:8], valid[:8])  # warm-up: torch's first call
+    request = Request(
+        "duis",
+        predict,
+        depth,
+        valid,
+        labeled=np.arange(args.labeled),
+        budget=args.budget,
+        seed=args.seed,
+        batch_size=args.batch_size,
+    )
+    selection = run(request)
+    print_split(selection, args.frames, args.labeled, valid)
     n = min(args.profile_frames, args.frames)
     sensor = request.sensor or SensorParams.paper_real()
     print(f"Variants by condition, mean over the first {n} frames (paper_real sensor):\n")
