@@ -244,3 +244,21 @@ def test_the_readme_example_runs_as_written():
     exec(compile(code, "README.md", "exec"), namespace)
     picks = namespace["picks"]
     assert len(set(np.asarray(picks).tolist())) == len(picks) > 0
+
+
+def test_small_pools_torch_outputs_and_a_0_1_mask_are_taken():
+    """A pool of one unlabeled frame, predict answering in torch tensors (half precision)
+    and a validity mask of 0/1 integers: DUIS still answers."""
+    depth, valid = frames()
+    net = Classifier()
+
+    def predict(d, v):
+        with torch.no_grad():
+            probs, feats = net(torch.from_numpy(d), torch.from_numpy(v))
+        return probs.half(), feats
+
+    mask = valid.astype(np.int64)
+    last = spl_al.query("duis", predict, depth, mask, labeled=range(N - 1), budget=1)
+    np.testing.assert_array_equal(last, [N - 1])
+    every = spl_al.query("duis", predict, depth, mask, labeled=None, budget=N)
+    assert sorted(every.tolist()) == list(range(N))

@@ -13,9 +13,12 @@ from pathlib import Path
 import numpy as np
 import pytest
 from helpers.deploy_models import make_round
+from helpers.photon_captures import simulate_capture, write_sparse_mat
+from helpers.photon_scenes import disc_scene
 
 from spl_al.__main__ import COMMANDS
 from spl_al.__main__ import main as cli
+from spl_al.photon import SensorParams
 
 ROOT = Path(__file__).resolve().parents[1]
 COMMAND_NAMES = ("estimate", "reconstruct", "export", "predict", "query")
@@ -83,17 +86,23 @@ def rows(path: Path) -> list[dict]:
         return list(csv.DictReader(f))
 
 
-def test_query_writes_the_labeling_batch_of_a_trained_classifier(models, tmp_path):
+def test_query_writes_the_labeling_batch_of_a_trained_classifier(models, tmp_path, capsys):
     frames = release_folder(tmp_path / "frames", (32, 32), 24)
+    # a raw capture beside the release frames, reconstructed as `predict` reconstructs it
+    sensor = SensorParams(bin_width_s=80e-12, pulse_sigma_s=520e-12, n_bins=1024)
+    events = simulate_capture(disc_scene(32, 32, 3.0, 6.0), 5.0, 1.0, sensor, seed=0)
+    write_sparse_mat(frames / "scan.mat", events, sensor)
     (tmp_path / "labeled.csv").write_text("file,label\nframe00.npz,apple\nframe05.npz,bin\n")
     out = tmp_path / "batch"
     args = ["query", "--model", str(models["classification"]), "--frames", str(frames)]
     args += ["--labeled", str(tmp_path / "labeled.csv"), "--budget", "4", "--method", "duis"]
     assert cli([*args, "--out", str(out)]) == 0
+    assert "4 of 23 unlabeled frames" in capsys.readouterr().out  # 24 + 1 frames, 2 labeled
     asked = rows(out / "to_label.csv")
     files = [r["file"] for r in asked]
     assert len(set(files)) == 4 and not {"frame00.npz", "frame05.npz"} & set(files)
-    assert [r["sample"] for r in asked] == [str(int(f[5:7])) for f in files]
+    order = sorted(p.name for p in frames.iterdir())  # a sample id: its place in the folder
+    assert [r["sample"] for r in asked] == [str(order.index(f)) for f in files]
     for name in ("classes.csv", "contact_sheet.png", "label_studio.xml", "README.txt"):
         assert (out / name).is_file()
     assert all((out / f"sample{r['sample']}.png").is_file() for r in asked)
