@@ -7,12 +7,12 @@ returns a ``Selection`` (the indices, how many frames ``predict`` saw, where the
 went).
 
 ``predict(depth_m, valid)`` takes a batch of at most ``Request.batch_size`` frames (256
-by default: memory stays bounded whatever the pool), depth
-(B, H, W) float32 in metres with NaN at voids and the (B, H, W) bool mask of the
-pixels with a return, and returns class probabilities (B, C), or per-pixel
-probabilities (B, C, H, W) for segmentation, or a tuple (probabilities, features)
-with features (B, D) (segmentation may give (B, D, H, W), averaged here over the
-observed frame's valid pixels). numpy arrays or CPU torch tensors.
+by default: memory stays bounded whatever the pool), depth (B, H, W) float32 in metres
+with NaN at voids and the (B, H, W) bool mask of the pixels with a return, and returns
+class probabilities (B, C), or per-pixel probabilities (B, C, H, W) for segmentation,
+or a tuple (probabilities, features) with features (B, D) (segmentation may give
+(B, D, H, W), averaged here over the observed frame's valid pixels): numpy arrays or
+CPU torch tensors.
 
 What each strategy reads (its ``needs``, ``spl_al.strategies.inputs.NEEDS``):
 
