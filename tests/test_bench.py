@@ -351,3 +351,15 @@ def test_the_agreement_bench_sets_the_two_frameworks_side_by_side(tmp_path, caps
     assert (tmp_path / "agreement_real_cls.csv").is_file()
     assert (figures / "agreement_real_cls.png").is_file()
     assert agreement.main([str(emb), str(tmp_path / "none")]) == 2
+
+
+def test_query_bench_splits_the_time_of_a_duis_query(capsys):
+    from spl_al.bench import query
+
+    args = ["--frames", "16", "--labeled", "4", "--budget", "3", "--profile-frames", "2"]
+    assert query.main(args) == 0
+    out = capsys.readouterr().out
+    assert "60 images through predict" in out  # 12 unlabeled frames and 4 variants each
+    for part in ("predict (SmallCNN", "variants (photon", "selection (k-means", "**whole query**"):
+        assert part in out
+    assert "Overhead (outside predict)" in out and out.count("| 0.2 |") >= 2

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import importlib
+
 import numpy as np
 import pytest
 
@@ -14,6 +16,7 @@ from spl_al.photon import (
     reconstruct,
     simulate_photons,
     synthesize_variant,
+    synthesize_variants,
 )
 
 SENSOR = SensorParams.tabletop()
@@ -113,6 +116,78 @@ def test_synthesize_variant_is_seeded_and_keeps_the_image_shape(scene):
     assert a.shape == scene.shape
     np.testing.assert_array_equal(a, b)
     assert np.nanmedian(np.abs(a - scene)) < 2 * SENSOR.bin_depth_m
+
+
+@pytest.mark.parametrize(
+    "sensor", [SENSOR, SensorParams.paper_real()], ids=["tabletop", "paper_real"]
+)
+def test_skipping_the_photons_that_cannot_count_changes_no_number(scene, sensor, monkeypatch):
+    """The reconstruction skips photons that cannot count (``_PRUNE``): isolated photons
+    in the LMF scores, photons far from every candidate of a 5x5 window in the pooled
+    choice, photons beyond the EM's reach. Every output is the same, bit for bit, as
+    when every photon is read, over photon budgets, backgrounds, voids and censoring."""
+    module = importlib.import_module("spl_al.photon.reconstruct")
+    holes = scene.copy()
+    holes[np.random.default_rng(0).random(scene.shape) < 0.3] = np.nan
+    for depth in (scene, holes):
+        for msppp, sbr in ((10.0, 0.2), (2.0, 0.2), (5.0, 1.0), (2.0, 5.0), (0.5, 0.1)):
+            ev = simulate_photons(
+                PhotonScene(depth), Condition(msppp, sbr, sensor), np.random.default_rng(1)
+            )
+            for method, censor in (("pooled", False), ("lmf", True), ("pooled", True)):
+                out = {}
+                for prune in (False, True):
+                    monkeypatch.setattr(module, "_PRUNE", prune)
+                    out[prune] = reconstruct(ev, ev.shape, sensor, method=method, censor=censor)
+                for field, a, b in zip(out[True]._fields, out[False], out[True], strict=True):
+                    assert np.array_equal(a, b, equal_nan=True), (msppp, sbr, method, field)
+
+
+def test_shifted_views_are_the_shifted_copies():
+    """The pooled choice and the 3x3 filters read shifted images as views of one padded
+    copy (``_at``), the same values as ``_shift``'s copies."""
+    module = importlib.import_module("spl_al.photon.reconstruct")
+    rng = np.random.default_rng(0)
+    ints = rng.integers(-1, 50, (5, 7))
+    floats = np.where(rng.random((5, 7)) < 0.2, np.nan, rng.normal(size=(5, 7)))
+    for image, fill in ((ints, -1), (floats, np.nan), (floats, 0.0)):
+        padded = module._padded(image, fill, 2)
+        for dy in range(-2, 3):
+            for dx in range(-2, 3):
+                view = module._at(padded, 2, dy, dx)
+                assert view.dtype == image.dtype
+                np.testing.assert_array_equal(view, module._shift(image, dy, dx, fill))
+
+
+def test_synthesize_variants_are_each_frames_own(scene):
+    """A frame's variants come from its own generator: the same alone or in a batch,
+    the same as ``synthesize_variant`` on the whole frame (the crop changes nothing),
+    all-void for a frame without returns."""
+    conditions = [(5.0, 1.0), (2.0, 0.2)]
+    shifted = np.roll(scene, 3, axis=1)
+    shifted[:, :10] = np.nan  # a frame whose returns fill part of it
+    empty = np.full(scene.shape, np.nan)
+    depth = np.stack([scene, shifted, empty])
+    valid = np.isfinite(depth)
+
+    def rngs(ids):
+        return [np.random.default_rng([7, i]) for i in ids]
+
+    batch = synthesize_variants(depth, valid, conditions, rng=rngs(range(3)), sensor=SENSOR)
+    assert batch.shape == (3, 2, *scene.shape) and batch.dtype == np.float32
+    alone = synthesize_variants(depth[1:2], valid[1:2], conditions, rng=rngs([1]), sensor=SENSOR)
+    np.testing.assert_array_equal(batch[1:2], alone)
+    assert np.isnan(batch[2]).all()
+    rng = np.random.default_rng([7, 1])
+    for j, (msppp, sbr) in enumerate(conditions):
+        whole = synthesize_variant(
+            PhotonScene(np.where(valid[1], depth[1], 0.0), None, valid[1]),
+            Condition(msppp, sbr, SENSOR),
+            rng,
+        )
+        np.testing.assert_array_equal(batch[1, j], whole.astype(np.float32))
+    with pytest.raises(ValueError, match="reach"):
+        synthesize_variants(depth[:1] * 100, valid[:1], conditions, rng=rngs([0]), sensor=SENSOR)
 
 
 def test_real_capture_shows_the_wall_and_the_vehicle(ugv45m_dir):

@@ -1,11 +1,16 @@
 """spl-al: condition-aware active learning for single-photon LiDAR (SPL) perception.
 
+``spl_al.query(method, predict, depth_m, valid, labeled=..., budget=...)`` asks DUIS
+(or any registered strategy) which frames to label next, with your own model's
+``predict`` (``spl_al.acquire``; loaded on first use, so ``import spl_al`` stays cheap).
+
 Areas, top layer first (docs/design.md is the map; a module imports only its own
 package and the layers below it):
 
 - tools: ``spl_al.bench`` (benchmarks that print tables: ``python -m spl_al.bench
-  NAME``), ``spl_al.docs`` (the generated docs pages and README blocks), ``python -m
-  spl_al export|predict`` (``__main__``).
+  NAME``), ``spl_al.docs`` (the generated docs pages and README blocks), ``spl-al
+  estimate|reconstruct|export|predict|query`` (``__main__``; ``spl_al.query_frames``:
+  a trained model picks a folder's next labeling batch).
 - workflow steps: ``spl_al.experiment`` (the plan of a config, one function per rule,
   what `all` asks for), ``spl_al.warm`` (how a job runs: the warm job server).
 - outputs: ``spl_al.report`` (tables, curves, statistics, claims), ``spl_al.deploy``
@@ -13,7 +18,8 @@ package and the layers below it):
   Studio).
 - round 0: ``spl_al.cold_start`` (random, stratified, or a first batch without labels).
 - active learning: ``spl_al.pool`` (labeled sets, the simulated oracle),
-  ``spl_al.query`` (a round's query), ``spl_al.scoring`` (the forward passes a strategy
+  ``spl_al.round_query`` (a round's query), ``spl_al.acquire`` (``spl_al.query``: any
+  strategy with a model of your own), ``spl_al.scoring`` (the forward passes a strategy
   needs), ``spl_al.linear_probe`` (the embedding framework's classifier).
 - learning: ``spl_al.strategies`` (every acquisition strategy behind one registry),
   ``spl_al.training`` (training, evaluation, precision, the self-supervised encoder).
@@ -28,3 +34,14 @@ package and the layers below it):
 """
 
 __version__ = "0.1.0"
+__all__ = ["__version__", "query"]
+
+
+def __getattr__(name: str):
+    """``spl_al.query`` (``spl_al.acquire.query``), imported when first asked for."""
+    if name == "query":
+        # numpy, the strategies and the photon engine on first use: `import spl_al` stays cheap
+        from spl_al.acquire import query
+
+        return query
+    raise AttributeError(f"module 'spl_al' has no attribute {name!r}")

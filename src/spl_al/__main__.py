@@ -1,4 +1,4 @@
-"""``python -m spl_al COMMAND [options]`` (also the ``spl-al`` console script).
+"""``spl-al COMMAND [options]`` (the console script; also ``python -m spl_al``).
 
 Commands are a table: name -> (module, function, one line of help). A command's
 function takes the rest of the command line and returns the exit code; it is imported
@@ -12,6 +12,16 @@ import importlib
 import sys
 
 COMMANDS: dict[str, tuple[str, str, str]] = {
+    "estimate": (
+        "spl_al.bench.estimate",
+        "main",
+        "predict a config's wall time on this machine (python -m spl_al.bench estimate)",
+    ),
+    "reconstruct": (
+        "spl_al.photon.__main__",
+        "reconstruct_main",
+        "a raw photon capture to a release-layout depth frame (python -m spl_al.photon)",
+    ),
     "export": (
         "spl_al.deploy.cli",
         "export_main",
@@ -22,6 +32,11 @@ COMMANDS: dict[str, tuple[str, str, str]] = {
         "predict_main",
         "classify or segment release-layout frames and raw captures with a model",
     ),
+    "query": (
+        "spl_al.query_frames",
+        "main",
+        "pick the frames a person labels next (DUIS by default) and write their batch",
+    ),
 }
 
 
@@ -29,7 +44,10 @@ def usage() -> str:
     """The list of commands, one per line."""
     width = max(map(len, COMMANDS))
     lines = [f"  {name:<{width}}  {help_}" for name, (_, _, help_) in COMMANDS.items()]
-    return "usage: python -m spl_al COMMAND [options]\n\ncommands:\n" + "\n".join(lines)
+    return (
+        "usage: spl-al COMMAND [options]   (or python -m spl_al COMMAND [options]; "
+        "spl-al COMMAND --help for a command's)\n\ncommands:\n" + "\n".join(lines)
+    )
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -11,6 +11,7 @@ lower case; ``round0`` is ``round0_rng``, ``grid`` ``grid_seed``, ``sample``
 | ``query`` | seed, round | the random choices of the query that follows the round |
 | ``grid`` | grid seed, MSPPP, SBR | one cell of the robustness map |
 | ``sample`` | data seed, stream, sample uid | a sample's scene, photons, variants, split |
+| ``acquire`` | seed | the strategy's choices of ``spl_al.query`` (its variants: ``sample``) |
 
 The dataset and the method are not part of any key, on purpose. At one seed every
 method starts from the same round-0 set, trains from the same weights stream and
@@ -42,6 +43,8 @@ _ROUND0_STREAM = 0x5EED_0001
 """np.random.default_rng([stream, seed]) of round 0's draw."""
 _GRID_STREAM = 11
 """np.random.SeedSequence([seed, stream, msppp x 1000, sbr x 1000]) of a grid cell."""
+_ACQUIRE_STREAM = 12
+"""np.random.SeedSequence([seed, stream]) of ``spl_al.query``'s strategy."""
 
 
 def _as_seed(seed) -> int:
@@ -77,6 +80,12 @@ def grid_seed(seed: int, msppp: float, sbr: float) -> int:
     """A 31-bit seed of one robustness-map cell: the grid seed and the cell's values
     alone, so a shard or a wider grid draws each cell the same."""
     return _state31([_as_seed(seed), _GRID_STREAM, round(msppp * 1000), round(sbr * 1000)])
+
+
+def acquire_rng(seed: int) -> np.random.Generator:
+    """The generator of a strategy's random choices in ``spl_al.query`` under ``seed``
+    (its frames' variants draw from ``sample_rng(seed, STREAM_VARIANT, frame)``)."""
+    return np.random.default_rng(np.random.SeedSequence([_as_seed(seed), _ACQUIRE_STREAM]))
 
 
 def sample_rng(seed: int, stream: int, uid: int = 0) -> np.random.Generator:

@@ -25,6 +25,7 @@ from spl_al.data.parallel import chunk_indices, default_workers, run_chunks
 from spl_al.data.seeds import STREAM_OBSERVE, sample_rng
 from spl_al.photon import Condition, PhotonScene, SensorParams, reconstruct, simulate_photons
 from spl_al.photon.effects import ObservationModel, observe_photons
+from spl_al.photon.siv import photon_window
 
 DEFAULT_LEVELS: dict[str, float] = {"high": 10.0, "medium": 5.0, "low": 2.0}
 DEFAULT_SBR: tuple[float, ...] = (0.2, 1.0, 5.0)
@@ -111,22 +112,6 @@ def assign_conditions(
             msppp[pick] = value
     sbr = np.asarray(sbr_values)[rng.integers(len(sbr_values), size=n)]
     return msppp, sbr.astype(np.float64), level
-
-
-# Pixels farther than this from every return hold no photon; the photon engine's
-# neighbourhoods reach 2 pixels (5x5 candidates), so cropping to the returns'
-# bounding box plus this margin leaves every result unchanged (tested bit for bit).
-PHOTON_MARGIN_PX = 3
-
-
-def photon_window(valid: np.ndarray, margin: int = PHOTON_MARGIN_PX) -> tuple[slice, slice]:
-    """Row and column slices of the bounding box of ``valid`` grown by ``margin``."""
-    rows = np.flatnonzero(valid.any(axis=1))
-    cols = np.flatnonzero(valid.any(axis=0))
-    return (
-        slice(max(int(rows[0]) - margin, 0), int(rows[-1]) + margin + 1),
-        slice(max(int(cols[0]) - margin, 0), int(cols[-1]) + margin + 1),
-    )
 
 
 def image_through_photons(

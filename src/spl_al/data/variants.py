@@ -14,7 +14,7 @@ MSPPP levels x SBR values so that every prefix spreads over the grid
 order is (5, 1), (2, 0.2), (2, 5), (10, 0.2), (10, 5), (2, 1), (5, 0.2), (10, 1),
 (5, 5), so M = 4 takes the centre and the four corners of the grid. The photons
 are simulated and reconstructed on the bounding box of the observed image's
-returns (``spl_al.data.observe.image_through_photons``): bit-identical to
+returns (``spl_al.photon.synthesize_variants``): bit-identical to
 ``synthesize_variant`` on the whole frame, and faster.
 
 Seeding: sample i's photons come from ``sample_rng(seed, STREAM_VARIANT, uid_i)``.
@@ -32,15 +32,10 @@ import numpy as np
 
 from spl_al.data import storage
 from spl_al.data.dataset import Dataset
-from spl_al.data.observe import (
-    DEFAULT_LEVELS,
-    DEFAULT_SBR,
-    condition_set,
-    image_through_photons,
-)
+from spl_al.data.observe import DEFAULT_LEVELS, DEFAULT_SBR, condition_set
 from spl_al.data.parallel import chunk_indices, default_workers, run_chunks
 from spl_al.data.seeds import STREAM_VARIANT, sample_rng
-from spl_al.photon import METHODS, Condition, PhotonScene, SensorParams
+from spl_al.photon import METHODS, SensorParams, synthesize_variants
 
 SHARD_FORMAT = "spl-al-variant-shard"
 
@@ -165,25 +160,24 @@ def variant_conditions(dataset: Dataset, n_variants: int, conditions=None):
 def variants_of_image(
     depth_m, reflectance, *, conditions, sensor: SensorParams, rng, method="pooled"
 ):
-    """The M variants of one observed image, variant j at ``conditions[j]``.
+    """The M variants of one observed image, variant j at ``conditions[j]``
+    (``spl_al.photon.synthesize_variants`` of the one frame).
 
     Returns depth (M, H, W) float32, NaN at voids. An observed image without valid
     pixels gives void variants; a reflectance that is zero on every valid pixel is
     replaced by uniform reflectance.
     """
     depth = np.asarray(depth_m)
-    valid = np.isfinite(depth)
-    out = np.full((len(conditions), *depth.shape), np.nan, np.float32)
-    refl = None
-    if reflectance is not None and (np.asarray(reflectance)[valid] > 0).any():
-        refl = np.where(valid, reflectance, 0.0)
-    if valid.any():
-        scene = PhotonScene(depth, refl, valid)
-        for j, (msppp, sbr) in enumerate(conditions):
-            # synthesize_variant (simulate, then reconstruct), on the returns' bounding box.
-            condition = Condition(msppp, sbr, sensor)
-            out[j] = image_through_photons(scene, condition, rng, method=method)[0]
-    return out
+    refl = None if reflectance is None else np.asarray(reflectance)[None]
+    return synthesize_variants(
+        depth[None],
+        np.isfinite(depth)[None],
+        conditions,
+        rng=rng,
+        sensor=sensor,
+        reflectance=refl,
+        method=method,
+    )[0]
 
 
 def _variant_chunk(depth, reflectance, uid, *, conditions, sensor, seed, method):

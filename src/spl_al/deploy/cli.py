@@ -1,4 +1,5 @@
-"""The ``export`` and ``predict`` commands of ``python -m spl_al`` (``spl_al.__main__``).
+"""The ``export`` and ``predict`` commands of ``python -m spl_al`` (``spl_al.__main__``);
+``query`` (``spl_al.query_frames``) shares their capture options.
 
 python -m spl_al export MODEL.pt OUT.onnx [--dataset DATASET.npz] [--card CARD.json]
 python -m spl_al predict MODEL INPUT... --out OUT [capture options]
@@ -41,7 +42,9 @@ def export_main(argv: list[str]) -> int:
     return 0
 
 
-def _capture_arguments(parser: argparse.ArgumentParser) -> None:
+def capture_arguments(parser: argparse.ArgumentParser, method_flag: str = "--method") -> None:
+    """The raw-capture options of ``predict`` (and of ``query``, whose ``--method`` is the
+    strategy's: it names the reconstruction method ``method_flag``), overriding the card's."""
     # numpy on demand (importing this module does not load it)
     from spl_al.photon.io import FORMATS
     from spl_al.photon.reconstruct import METHODS
@@ -49,7 +52,9 @@ def _capture_arguments(parser: argparse.ArgumentParser) -> None:
     group = parser.add_argument_group(
         "raw captures", "override the reconstruction settings the model's card records"
     )
-    group.add_argument("--method", choices=METHODS, help="reconstruction method")
+    group.add_argument(
+        method_flag, dest="reconstruction", choices=METHODS, help="reconstruction method"
+    )
     group.add_argument("--format", choices=FORMATS, help="capture format")
     group.add_argument("--key", help="variable / array / dataset holding the photons")
     group.add_argument("--time-unit", help="unit of timestamps (ps)")
@@ -57,10 +62,17 @@ def _capture_arguments(parser: argparse.ArgumentParser) -> None:
     group.add_argument("--pulse-sigma-ps", type=float, help="instrument response sigma")
     group.add_argument("--time-axis", type=int, choices=(0, 2, -1), help="cube: axis of time")
     group.add_argument("--channel", type=int, help="PTU: detector channel")
-    group.add_argument("--weights", metavar="FOLDER", help="SSPI weights folder (--method sspi)")
+    weights = f"SSPI weights folder ({method_flag} sspi)"
+    group.add_argument("--weights", metavar="FOLDER", help=weights)
 
 
-_OVERRIDES = ("method", "format", "key", "time_unit", "bin_width_ps", "pulse_sigma_ps")
+_OVERRIDES = ("format", "key", "time_unit", "bin_width_ps", "pulse_sigma_ps")
+
+
+def overrides_of(args: argparse.Namespace) -> dict:
+    """The capture options the command line gave (``capture_arguments``; None: the card's)."""
+    given = {name: getattr(args, name) for name in (*_OVERRIDES, "time_axis", "channel")}
+    return {"method": args.reconstruction, **given}
 
 
 def predict_main(argv: list[str]) -> int:
@@ -76,13 +88,12 @@ def predict_main(argv: list[str]) -> int:
     parser.add_argument("--out", required=True, help="output folder (predictions.csv, masks/)")
     parser.add_argument("--card", help="the model's card (default: MODEL.card.json beside it)")
     parser.add_argument("--depth-key", default="depth_ssp", help="depth array of release files")
-    _capture_arguments(parser)
+    capture_arguments(parser)
     args = parser.parse_args(argv)
     # numpy on demand (importing this module does not load it)
     from spl_al.deploy.predict import predict
 
-    names = (*_OVERRIDES, "time_axis", "channel")
-    overrides = {name: getattr(args, name) for name in names}
+    overrides = overrides_of(args)
     try:
         predict(
             args.model,

@@ -12,7 +12,7 @@ one job.
 
 The round-0 sets are the seeds' own (``spl_al.cold_start.round0_set``, as the
 supervised framework's ``initial_set`` chooses them; a cold start reads the run seed's
-encoder), and the query is the supervised framework's (``spl_al.query.query_batch``,
+encoder), and the query is the supervised framework's (``spl_al.round_query.query_batch``,
 its random stream keyed by the run seed and the round just trained): the two frameworks
 differ in the model alone.
 """
@@ -37,8 +37,8 @@ from spl_al.frameworks import EMBEDDING
 from spl_al.linear_probe import DEFAULT_C, DropoutHead, LinearProbe, probe_inputs
 from spl_al.models.configured import save_model
 from spl_al.pool import Pool
-from spl_al.query import query_batch
 from spl_al.report.records import round_record
+from spl_al.round_query import query_batch
 from spl_al.seeding import TRAIN, round_rng
 from spl_al.strategies import get
 from spl_al.training.compute import LOCAL, Compute

@@ -24,8 +24,8 @@ from spl_al.experiment.step_args import FRESH, ModelFiles, RoundId, RoundStart
 from spl_al.frameworks import get_feature_space
 from spl_al.linear_probe import embedding_features
 from spl_al.pool import Pool, read_labeled
-from spl_al.query import query_batch
 from spl_al.report.records import round_record
+from spl_al.round_query import query_batch
 from spl_al.strategies import StrategyInputs, get
 from spl_al.strategies.inputs import NEEDS
 from spl_al.training.compute import LOCAL, Compute

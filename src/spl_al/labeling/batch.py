@@ -49,6 +49,7 @@ def write_batch(
     probs=None,
     model_version: str = "",
     chosen_by: str = "",
+    then: str = "run Snakemake again",
 ) -> Path:
     """Write the labeling batch of the training-pool groups ``pool_indices`` to ``out_dir``.
 
@@ -59,8 +60,9 @@ def write_batch(
     ``probs``: the probabilities the current model gives each sample ((n, C), or
     (n, C, H, W) for segmentation), which become the Label Studio tasks'
     pre-annotations, tagged ``model_version``; None writes tasks without them.
-    ``chosen_by``: a sentence on how the batch was chosen, for its README.txt. The
-    folder appears complete or not at all (written beside it, then renamed).
+    ``chosen_by``: a sentence on how the batch was chosen, for its README.txt; ``then``:
+    what to do once the file is saved (the README's words). The folder appears complete
+    or not at all (written beside it, then renamed).
     """
     out_dir = Path(out_dir)
     pool_indices = np.asarray(pool_indices, dtype=np.int64)
@@ -95,7 +97,7 @@ def write_batch(
         f"{len(samples)} samples to label: sample{{id}}.png shows each one's observed SPL "
         "depth image and its synthetic variants (colour: depth in metres, black: no "
         f"return); contact_sheet.png shows the whole batch.\nFill in to_label.csv ({what}) "
-        f"and save it as {labels_file}, then run Snakemake again.\nOr label the batch in "
+        f"and save it as {labels_file}, then {then}.\nOr label the batch in "
         "Label Studio: create a project whose labeling interface is label_studio.xml, import "
         "label_studio.json (the tasks"
         + (", with the model's predictions to correct" if probs is not None else "")

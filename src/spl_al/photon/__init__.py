@@ -9,7 +9,8 @@ Public API:
 - ``histogram``: the dense (rows, cols, T) count cube of some events.
 - ``reconstruct``: depth / reflectivity / background from events (ML, or SSPI
   with the published weights, ``spl_al.photon.sspi``).
-- ``synthesize_variant``: Algorithm 1 end to end (simulate, then reconstruct).
+- ``synthesize_variant``: Algorithm 1 end to end (simulate, then reconstruct);
+  ``synthesize_variants``: the M variants of every frame of a batch.
 - ``load_mat``: import a real capture stored as a sparse pixels x bins matrix.
 """
 
@@ -20,7 +21,7 @@ from spl_al.photon.reconstruct import METHODS, ML_METHODS, Reconstruction, recon
 from spl_al.photon.scene import Condition, PhotonScene
 from spl_al.photon.sensor import SPEED_OF_LIGHT_M_PER_S, SensorParams
 from spl_al.photon.simulate import simulate_photons
-from spl_al.photon.siv import synthesize_variant
+from spl_al.photon.siv import synthesize_variant, synthesize_variants
 
 __all__ = [
     "METHODS",
@@ -38,4 +39,5 @@ __all__ = [
     "reconstruct",
     "simulate_photons",
     "synthesize_variant",
+    "synthesize_variants",
 ]

@@ -23,6 +23,8 @@ run on 10,000-bin real captures as on 1024-bin simulations.
 
 from __future__ import annotations
 
+from typing import NamedTuple
+
 import numpy as np
 
 from spl_al.photon.events import PhotonEvents, Reconstruction
@@ -33,6 +35,9 @@ ML_METHODS = ("pooled", "lmf")  # maximum likelihood: no weights needed
 METHODS = (*ML_METHODS, "sspi")
 _EM_STEPS = 3
 _OWN_MARGIN_PHOTONS = 1.5  # at least: own evidence must beat the neighbourhood by this many photons
+_PRUNE = True
+"""Skip the photons that cannot count (``_own_best``, ``_within``): the same numbers,
+faster; tests/test_photon_reconstruct.py compares both ways."""
 
 
 class _SortedPhotons:
@@ -65,6 +70,24 @@ def _expand_ranges(lo: np.ndarray, hi: np.ndarray):
     start = np.cumsum(n) - n
     j = np.arange(q.size) - np.repeat(start - lo, n)
     return q, j
+
+
+class _Near(NamedTuple):
+    """The photons (pixel, bin) of ``_SortedPhotons`` that can count near some depths,
+    in their sorted order: what ``_score_at`` and ``_refine`` read."""
+
+    pixel: np.ndarray
+    bin: np.ndarray
+
+
+def _within(photons, lo: np.ndarray, hi: np.ndarray):
+    """The photons with lo[pixel] <= bin <= hi[pixel] (``_Near``; all with ``_PRUNE``
+    off). A photon outside adds nothing to a score or an EM step within that range, and
+    the others keep their order, so the sums are the same numbers."""
+    if not _PRUNE:
+        return photons
+    keep = (photons.bin >= lo[photons.pixel]) & (photons.bin <= hi[photons.pixel])
+    return _Near(photons.pixel[keep], photons.bin[keep])
 
 
 class _Likelihood:
@@ -136,15 +159,33 @@ def _own_best(photons: _SortedPhotons, like: _Likelihood, n_pixels: int):
     """Each pixel's best own photon bin under the LMF score, and that score.
 
     Returns (best_bin, best_score), each (n_pixels,); best_bin is -1 at empty pixels.
+
+    A photon with no other photon of its pixel within the window scores its own term
+    alone, ``table[w]``; only the others' window pairs are formed (with ``_PRUNE``), in
+    the same order, so the scores are the same numbers as forming every photon's pairs.
     """
     w = like.half_window
-    q, j = photons.window(photons.pixel, photons.bin - w, photons.bin + w)
-    delta = photons.bin[j] - photons.bin[q]
-    score = np.bincount(q, weights=like.table[delta + w], minlength=photons.key.size)
+    k = photons.key.size
     best_bin = np.full(n_pixels, -1, dtype=np.int64)
     best_score = np.zeros(n_pixels)
-    if score.size == 0:
+    if k == 0:
         return best_bin, best_score
+    if _PRUNE:
+        # keys of two pixels lie more than a window apart (``_SortedPhotons``)
+        close = np.diff(photons.key) <= w
+        clustered = np.zeros(k, dtype=bool)
+        clustered[:-1] |= close
+        clustered[1:] |= close
+        sub = np.flatnonzero(clustered)
+    else:
+        sub = np.arange(k)
+    score = np.full(k, like.table[w])
+    if sub.size:
+        key, bins = photons.key[sub], photons.bin[sub]
+        lo = np.searchsorted(key, key - w, side="left")
+        hi = np.searchsorted(key, key + w, side="right")
+        q, j = _expand_ranges(lo, hi)
+        score[sub] = np.bincount(q, weights=like.table[bins[j] - bins[q] + w], minlength=sub.size)
     starts = np.flatnonzero(np.r_[True, photons.pixel[1:] != photons.pixel[:-1]])
     seg_len = np.diff(np.r_[starts, score.size])
     seg_max = np.maximum.reduceat(score, starts)
@@ -158,7 +199,7 @@ def _own_best(photons: _SortedPhotons, like: _Likelihood, n_pixels: int):
 _NO_CENTRE = np.iinfo(np.int32).min // 2  # far from every bin: no photon is "near" it
 
 
-def _score_at(photons: _SortedPhotons, like: _Likelihood, centre: np.ndarray) -> np.ndarray:
+def _score_at(photons: _SortedPhotons | _Near, like: _Likelihood, centre: np.ndarray) -> np.ndarray:
     """LMF score of every pixel's own photons at its integer bin ``centre`` (n_pixels,);
     pixels with centre < 0 score 0. One pass over the photons."""
     w = like.half_window
@@ -168,7 +209,7 @@ def _score_at(photons: _SortedPhotons, like: _Likelihood, centre: np.ndarray) ->
     return np.bincount(photons.pixel[near], weights=like.table[offset[near]], minlength=centre.size)
 
 
-def _refine(photons: _SortedPhotons, like: _Likelihood, centre: np.ndarray):
+def _refine(photons: _SortedPhotons | _Near, like: _Likelihood, centre: np.ndarray):
     """Sub-bin ML depth by EM around ``centre`` (n_pixels,; < 0 = none):
     tau <- sum(r t) / sum(r) over the pixel's photons within the window, r the signal
     responsibility.
@@ -205,6 +246,21 @@ def _shift(image: np.ndarray, dy: int, dx: int, fill):
 _OFFSETS_3 = [(dy, dx) for dy in (-1, 0, 1) for dx in (-1, 0, 1)]
 
 
+def _padded(image: np.ndarray, fill, r: int) -> np.ndarray:
+    """``image`` inside a border of ``r`` pixels of ``fill``, for ``_at``."""
+    rows, cols = image.shape
+    out = np.full((rows + 2 * r, cols + 2 * r), fill, dtype=image.dtype)
+    out[r : r + rows, r : r + cols] = image
+    return out
+
+
+def _at(padded: np.ndarray, r: int, dy: int, dx: int) -> np.ndarray:
+    """``_shift(image, dy, dx, fill)`` as a view of ``_padded(image, fill, r)``, |dy|,
+    |dx| <= r (no copy)."""
+    rows, cols = padded.shape[0] - 2 * r, padded.shape[1] - 2 * r
+    return padded[r + dy : r + dy + rows, r + dx : r + dx + cols]
+
+
 def _pooled_choice(photons, like, best_bin, best_score, shape, margin_photons):
     """Neighbourhood-aided depth bin per pixel (-1 where the pixel has no photon).
 
@@ -214,9 +270,19 @@ def _pooled_choice(photons, like, best_bin, best_score, shape, margin_photons):
     rows, cols = shape
     cand = best_bin.reshape(shape)
     has_photons = cand >= 0
+    cand_at = _padded(cand, -1, 2)
+    window = np.stack([_at(cand_at, 2, oy, ox) for oy in range(-2, 3) for ox in range(-2, 3)])
+    # Every bin scored below is a candidate of the 5x5 window: only photons within a
+    # window of the window's lowest to highest candidate can count.
+    w, far = like.half_window, np.iinfo(np.int32).max // 4
+    lo = np.where(window >= 0, window, far).min(axis=0)
+    hi = np.maximum(window.max(axis=0), -far)
+    photons = _within(photons, (lo - w).ravel(), np.where(hi >= 0, hi + w, -far).ravel())
     # partial[(oy, ox)][q] = score of q's photons at the candidate of pixel q + o, |o| <= 2.
     partial = {
-        (oy, ox): _score_at(photons, like, _shift(cand, oy, ox, -1).ravel()).reshape(shape)
+        (oy, ox): _padded(
+            _score_at(photons, like, _at(cand_at, 2, oy, ox).ravel()).reshape(shape), 0.0, 1
+        )
         for oy in range(-2, 3)
         for ox in range(-2, 3)
     }
@@ -225,14 +291,14 @@ def _pooled_choice(photons, like, best_bin, best_score, shape, margin_photons):
     for k, (cy, cx) in enumerate(_OFFSETS_3):
         total = np.zeros(shape)
         for oy, ox in _OFFSETS_3:
-            total += _shift(partial[(cy - oy, cx - ox)], oy, ox, 0.0)
-        exists = _shift(cand, cy, cx, -1) >= 0
+            total += _at(partial[(cy - oy, cx - ox)], 1, oy, ox)
+        exists = _at(cand_at, 2, cy, cx) >= 0
         pooled[k][exists] = total[exists]
     k_best = np.argmax(pooled, axis=0)
     choice = np.full(shape, -1, dtype=np.int64)
     for k, (cy, cx) in enumerate(_OFFSETS_3):
         pick = k_best == k
-        choice[pick] = _shift(cand, cy, cx, -1)[pick]
+        choice[pick] = _at(cand_at, 2, cy, cx)[pick]
     choice[~has_photons] = -1
     # Own evidence overrides the neighbourhood only by a clear margin.
     own_at_choice = _score_at(photons, like, choice.ravel())
@@ -258,7 +324,8 @@ def _window_support(photons: _SortedPhotons, half_window: int, centre: np.ndarra
 
 def _median3(image: np.ndarray) -> np.ndarray:
     """3x3 median over finite values (NaN = void is ignored; all-void windows give NaN)."""
-    stack = np.sort(np.stack([_shift(image, dy, dx, np.nan) for dy, dx in _OFFSETS_3]), axis=0)
+    padded = _padded(image, np.nan, 1)
+    stack = np.sort(np.stack([_at(padded, 1, dy, dx) for dy, dx in _OFFSETS_3]), axis=0)
     n = np.isfinite(stack).sum(axis=0)  # np.sort puts NaN last
     lo = np.take_along_axis(stack, np.maximum(n - 1, 0)[None] // 2, axis=0)[0]
     hi = np.take_along_axis(stack, (n // 2)[None], axis=0)[0]
@@ -266,8 +333,12 @@ def _median3(image: np.ndarray) -> np.ndarray:
 
 
 def _mean3(image: np.ndarray, weight: np.ndarray) -> np.ndarray:
-    num = sum(_shift(image * weight, dy, dx, 0.0) for dy, dx in _OFFSETS_3)
-    den = sum(_shift(weight.astype(np.float64), dy, dx, 0.0) for dy, dx in _OFFSETS_3)
+    image_at, weight_at = (
+        _padded(image * weight, 0.0, 1),
+        _padded(weight.astype(np.float64), 0.0, 1),
+    )
+    num = sum(_at(image_at, 1, dy, dx) for dy, dx in _OFFSETS_3)
+    den = sum(_at(weight_at, 1, dy, dx) for dy, dx in _OFFSETS_3)
     return np.where(den > 0, num / np.maximum(den, 1e-300), 0.0)
 
 
@@ -340,7 +411,10 @@ def reconstruct(
         )
         centre = _pooled_choice(photons, like, best_bin, best_score, (rows, cols), margin)
     has = centre >= 0
-    tau, n_in = _refine(photons, like, centre)
+    # EM moves tau by at most a window a step: only photons within _EM_STEPS windows count
+    reach = _EM_STEPS * like.half_window
+    near = _within(photons, np.where(has, centre - reach, 1), np.where(has, centre + reach, 0))
+    tau, n_in = _refine(near, like, centre)
 
     depth = sensor.bin_to_depth(tau).reshape(rows, cols)
     n_in = n_in.reshape(rows, cols)
