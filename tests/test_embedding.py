@@ -393,3 +393,23 @@ def test_each_round_records_what_the_strategy_decided():
     spec = MethodSpec(name="typiclust", strategy="typiclust")
     records = _run(facts, spec, which=("toy", 1), al=al, rounds=2, c=1.0, n_variants=2)
     assert records[0]["query_decision"]["clusters"] == 15  # 10 labeled + a batch of 5
+
+
+def test_the_probe_bench_trains_the_configs_encoder_recipe():
+    """bench probe reads a config whose encoder block plans several encoders (seeds,
+    block): it trains the shared recipe at the first seed (it stopped with "unknown keys
+    ['block', 'seeds']")."""
+    from pathlib import Path
+
+    import yaml
+
+    from spl_al.bench.probe import probe_encoder
+    from spl_al.training.contrastive import EncoderConfig
+
+    default = Path(__file__).resolve().parents[1] / "config" / "config.yaml"
+    config = yaml.safe_load(default.read_text())
+    for name in ("real_cls", "synth_cls"):
+        settings = probe_encoder(config["datasets"][name])
+        assert "seeds" not in settings and "block" not in settings
+        cfg = EncoderConfig.from_dict(settings)
+        assert cfg.seed == 0 and cfg.steps == settings["steps"]

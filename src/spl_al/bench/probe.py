@@ -87,6 +87,14 @@ def encode_fit_part(dataset, fit_idx, encoder_cfg: dict, *, log=print):
     return flat.reshape(n, g, -1), {**record, "gflops": rate}
 
 
+def probe_encoder(entry: dict) -> dict:
+    """The encoder settings the bench trains: the dataset's shared recipe at its first
+    encoder seed (``embedding.encoder`` without the plan's ``seeds`` and ``block``)."""
+    from spl_al.experiment.encoders import encoder_recipe, encoder_seeds
+
+    return {**encoder_recipe(entry), "seed": encoder_seeds(entry)[0]}
+
+
 def compare(dataset, entry: dict, *, seeds=SEEDS, c_values=C_VALUES, cnn=True, log=print):
     """One row per budget: probe (per C, observed / with variants) and CNN scores."""
     # pandas on demand (importing this module does not load it)
@@ -94,7 +102,7 @@ def compare(dataset, entry: dict, *, seeds=SEEDS, c_values=C_VALUES, cnn=True, l
 
     embedding = EMBEDDING.settings(entry)
     fit_idx, held_out = tuning_split(dataset)
-    embeddings, record = encode_fit_part(dataset, fit_idx, embedding.get("encoder") or {}, log=log)
+    embeddings, record = encode_fit_part(dataset, fit_idx, probe_encoder(entry), log=log)
     rounds = embedding["experiments"]["budget"]["rounds"]
     rows = []
     for r in range(rounds):
