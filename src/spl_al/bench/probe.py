@@ -43,6 +43,7 @@ from spl_al.bench.learnability import (
 from spl_al.bench.timing import markdown_table
 from spl_al.data import Dataset
 from spl_al.data.dataset import HEADLINE_METRICS
+from spl_al.experiment.encoders import encoder_recipe, encoder_seeds
 from spl_al.frameworks import EMBEDDING
 from spl_al.linear_probe import LinearProbe
 from spl_al.pool import initial_labeled_set
@@ -90,8 +91,6 @@ def encode_fit_part(dataset, fit_idx, encoder_cfg: dict, *, log=print):
 def probe_encoder(entry: dict) -> dict:
     """The encoder settings the bench trains: the dataset's shared recipe at its first
     encoder seed (``embedding.encoder`` without the plan's ``seeds`` and ``block``)."""
-    from spl_al.experiment.encoders import encoder_recipe, encoder_seeds
-
     return {**encoder_recipe(entry), "seed": encoder_seeds(entry)[0]}
 
 
