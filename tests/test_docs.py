@@ -358,6 +358,10 @@ def test_a_pages_aubc_overview_is_one_table_of_every_dataset(tmp_path):
     page = results_blocks.results_block(results, page="decisive")
     assert "\n".join(lines) in page
     assert results_blocks.overview_columns(page).keys() == {"real_cls", "street_seg"}
+    # a block written before pages had an overview: its dataset tables are no overview
+    # (--keep-absent took a budget table's rounds for datasets)
+    older = "## real_cls\n\n| Method | 1.8% (round 0) | 3.6% |\n|:---|---:|---:|\n| Random | 30.0 | 40.0 |\n"
+    assert results_blocks.overview_columns(older) == {}
 
 
 def test_keep_absent_updates_one_dataset_of_a_shared_page(tmp_path):
@@ -434,13 +438,16 @@ def test_the_readme_answer_is_one_table_of_both_frameworks(tmp_path, capsys):
         [("duis_best_aubc", "supported", "duis - random", 5.6, 3.4, 7.8, 1)],
         claim="DUIS has the largest AUBC, as the paper compares (against Random only).",
     )
+    # the run's effective config says which datasets are procedural stand-ins
+    (emb / "config.yaml").write_text("datasets: {real_cls: {source: synthetic}}\n")
     readme = tmp_path / "README.md"
     readme.write_text("# x\n\n<!-- answer:start -->\nold\n<!-- answer:end -->\n\nrest\n")
     assert answer.main([str(emb), str(sup), "--readme", str(readme)]) == 0
     text = readme.read_text()
     assert text.startswith("# x\n\n<!-- answer:start -->\n") and text.endswith("\n\nrest\n")
     assert (
-        "| Question | embedding: real_cls, 12 encoders | supervised: real_cls, 24 seeds |" in text
+        "| Question | embedding: real_cls (stand-in), 12 encoders "
+        "| supervised: real_cls, 24 seeds |" in text
     )
     row = next(line for line in text.split("\n") if "as the paper compares" in line)
     assert "**contradicted**: −1.1 [−1.7, −0.5] vs Margin" in row

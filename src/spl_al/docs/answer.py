@@ -19,6 +19,7 @@ import sys
 from pathlib import Path
 
 from spl_al.atomic import atomic_write_text
+from spl_al.config import is_standin
 from spl_al.docs.markers import replace_block
 from spl_al.frameworks import EMBEDDING, SUPERVISED
 from spl_al.layout import table_file
@@ -60,6 +61,19 @@ def _claims(results: Path, dataset: str, framework) -> dict[str, dict]:
     return {row["claim_id"]: row for row in read_rows(path)} if path.is_file() else {}
 
 
+def _standin(results: Path, dataset: str) -> bool:
+    """Whether the run's dataset is a procedural stand-in (synthesised, or a folder
+    dataset synthesised for want of a path), as the run's effective config
+    (``RESULTS/config.yaml``) says."""
+    path = Path(results) / "config.yaml"
+    if not path.is_file():
+        return False
+    import yaml
+
+    entry = ((yaml.safe_load(path.read_text()) or {}).get("datasets") or {}).get(dataset) or {}
+    return entry.get("source") == "synthetic" or is_standin(entry)
+
+
 def _units(rows: dict[str, dict]) -> str:
     """'12 encoders' or '24 seeds': the units the run's claims count."""
     if not rows:
@@ -97,7 +111,8 @@ def answer_table(embedding_results: Path, supervised_results: Path) -> str:
         for dataset in DATASETS:
             rows = _claims(results, dataset, kind)
             if rows:
-                columns.append((f"{kind.name}: {dataset}, {_units(rows)}", rows))
+                name = f"{dataset} (stand-in)" if _standin(results, dataset) else dataset
+                columns.append((f"{kind.name}: {name}, {_units(rows)}", rows))
     if not columns:
         raise ValueError(
             f"neither {embedding_results} nor {supervised_results} holds claims of "
