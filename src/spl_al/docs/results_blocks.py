@@ -60,6 +60,8 @@ FIGURES = (
     ("batch_conditions", "batch_conditions", "MSPPP and SBR make-up of each method's queries"),
     ("robustness_diff", "robustness_diff", "DUIS minus the best baseline over MSPPP x SBR"),
 )
+OVERVIEW_TITLE = "**Area under the budget curve over the query rounds** (%) [95% CI]:"
+"""The line that opens a page's AUBC overview table (``aubc_overview``)."""
 # claims.csv's verdicts a sentence names one by one (all are counted, in VERDICTS' order)
 NAMED = (SUPPORTED, CONTRADICTED, AGAINST)
 
@@ -122,9 +124,13 @@ family key})."""
 
 
 def overview_columns(block: str) -> dict[str, Column]:
-    """{dataset: its column} of the AUBC overview table of a generated page block."""
+    """{dataset: its column} of the AUBC overview table of a generated page block ({}
+    for a block without one: a page's dataset tables are not the overview)."""
+    if OVERVIEW_TITLE not in block:
+        return {}
     lines = []
-    for line in block.split("\n"):  # the contiguous table that starts "| Method |"
+    # the contiguous table that starts "| Method |" after the overview's title
+    for line in block.split(OVERVIEW_TITLE, 1)[1].split("\n"):
         if line.startswith("| Method |") or (lines and line.startswith("|")):
             lines.append(line)
         elif lines:
@@ -485,7 +491,7 @@ def results_block(
     lines = [
         _generated_by(page, kept=list(kept), stamp=stamp, framework=framework),
         "",
-        "**Area under the budget curve over the query rounds** (%) [95% CI]:",
+        OVERVIEW_TITLE,
         "",
         *aubc_overview(results, columns),
         "",
