@@ -67,7 +67,7 @@ def test_captures_run_through_the_budget_and_level_tables(captures, tmp_path):
         f"    source: captures\n    path: {root}\n    captures: {{shards: 2}}\n"
         "    experiments:\n"
         "      budget: {methods: [random, duis], matched: false, seeds: [1, 2], rounds: 2}\n"
-        "      ablation: null\n      sensitivity: null\n"
+        "      ablation: null\n      sensitivity: null\n      cold_start: null\n"
         "    robustness: {enabled: false}\n"
     )
     results = tmp_path / "results"
