@@ -338,8 +338,10 @@ def test_the_agreement_bench_sets_the_two_frameworks_side_by_side(tmp_path, caps
         (both["at"] == "AUBC") & (both["method_b"] == "random") & (both["method_a"] == "duis")
     ]
     assert row["diff_supervised"].iloc[0] == 3.0 and bool(row["signs_agree"].iloc[0])
-    assert sorted(both["resolution"]) == ["one only", "opposite", "same", "same"]
+    # both resolved alike, one only, opposite; and the round, neither
+    assert sorted(both["resolution"]) == ["both", "neither", "one only", "opposite"]
     assert facts["signs_agree"] == 3 and facts["opposite"] == 1
+    assert facts["both"] == facts["neither"] == facts["one_only"] == 1
     assert facts["methods"] == ["duis", "random", "syn_margin"]  # typiclust: embedding only
     assert facts["spearman"] == pytest.approx(0.5)  # ranks (2, 1, 3) against (3, 1, 2)
     figures = tmp_path / "figures"

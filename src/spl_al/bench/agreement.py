@@ -11,17 +11,17 @@ writes every comparison both made: the same pair of methods at the same query ro
 (the same number of labeled groups), and over the AUBC of the query rounds. For each:
 
 - the paired difference A − B (points) with its 95% interval in each framework;
-- whether the signs agree, and whether both resolved it the same way (both in A's
-  favour, both in B's, or both unresolved) or not: one resolved it and the other not
-  ("one only"), or they resolved it in opposite directions ("opposite").
+- whether the signs agree, and how the two resolved it: both the same way ("both":
+  both in A's favour or both in B's), neither ("neither"), one and not the other
+  ("one only"), or in opposite directions ("opposite").
 
 Per dataset it also gives the Spearman correlation of the methods' AUBC (each
 method's mean AUBC in each framework, over the methods both ran) and draws the
 methods' AUBC in one framework against the other (``--figures DIR``:
 ``agreement_{dataset}.png``). ``--out DIR`` writes the comparisons as
 ``agreement_{dataset}.csv``. The intervals come from each framework's own units
-(encoders, seeds), so "same resolution" asks both to reach the same verdict at the
-power each has.
+(encoders, seeds), so "both" asks both to reach the same verdict at the power each
+has.
 """
 
 from __future__ import annotations
@@ -67,6 +67,14 @@ def _resolution(row, side: str) -> str:
     return "A" if float(row[f"diff_{side}"]) > 0 else "B"
 
 
+def _both_ways(embedding: str, supervised: str) -> str:
+    """How the two frameworks resolved one comparison ('A', 'B' or '-' each): "both"
+    (the same way), "opposite", "one only" or "neither"."""
+    if "-" not in (embedding, supervised):
+        return "both" if embedding == supervised else "opposite"
+    return "neither" if embedding == supervised else "one only"
+
+
 def _oriented(cmp):
     """Each pair as (A, B) with A the later name alphabetically, so the two frameworks'
     rows meet whatever order their methods ran in; the difference flips with them."""
@@ -109,10 +117,7 @@ def compare(embedding_results: Path, supervised_results: Path, dataset: str):
     both["signs_agree"] = (both[f"diff_{EMB}"] > 0) == (both[f"diff_{SUP}"] > 0)
     res_e = both.apply(_resolution, axis=1, side=EMB)
     res_s = both.apply(_resolution, axis=1, side=SUP)
-    both["resolution"] = [
-        "same" if e == s else "opposite" if "-" not in (e, s) else "one only"
-        for e, s in zip(res_e, res_s, strict=True)
-    ]
+    both["resolution"] = [_both_ways(e, s) for e, s in zip(res_e, res_s, strict=True)]
     both["dataset"] = dataset
     means = {kind.name: method_aubc(frames[kind.name]) for kind in SIDES}
     shared = sorted(set(means[EMB]) & set(means[SUP]))
@@ -125,11 +130,12 @@ def compare(embedding_results: Path, supervised_results: Path, dataset: str):
         "comparisons": len(both),
         "aubc_comparisons": len(aubc),
         "signs_agree": int(both["signs_agree"].sum()),
-        "same": int((both["resolution"] == "same").sum()),
+        "both": int((both["resolution"] == "both").sum()),
+        "neither": int((both["resolution"] == "neither").sum()),
         "one_only": int((both["resolution"] == "one only").sum()),
         "opposite": int((both["resolution"] == "opposite").sum()),
         "aubc_signs_agree": int(aubc["signs_agree"].sum()),
-        "aubc_same": int((aubc["resolution"] == "same").sum()),
+        "aubc_both": int((aubc["resolution"] == "both").sum()),
         "spearman": rho,
         "methods": shared,
         "aubc": {EMB: x, SUP: y},
@@ -161,9 +167,10 @@ def render(both, facts: dict) -> str:
         f"**{facts['dataset']}: {n} comparisons both frameworks made ({na} over the AUBC); "
         f"{EMB} over {units[EMB]}, {SUP} over {units[SUP]}.** "
         f"Signs agree in {facts['signs_agree']} of {n} ({facts['aubc_signs_agree']} of {na} "
-        f"AUBC); resolved the same way in {facts['same']} of {n} ({facts['aubc_same']} of "
-        f"{na} AUBC), by one framework only in {facts['one_only']}, in opposite directions "
-        f"in {facts['opposite']}. Spearman correlation of the {len(facts['methods'])} "
+        f"AUBC); resolved the same way by both in {facts['both']} of {n} "
+        f"({facts['aubc_both']} of {na} AUBC), by one framework only in "
+        f"{facts['one_only']}, by neither in {facts['neither']}, in opposite directions in "
+        f"{facts['opposite']}. Spearman correlation of the {len(facts['methods'])} "
         f"methods' AUBC: {facts['spearman']:+.2f}."
     )
     rows = [
