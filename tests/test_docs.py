@@ -360,7 +360,10 @@ def test_a_pages_aubc_overview_is_one_table_of_every_dataset(tmp_path):
     assert results_blocks.overview_columns(page).keys() == {"real_cls", "street_seg"}
     # a block written before pages had an overview: its dataset tables are no overview
     # (--keep-absent took a budget table's rounds for datasets)
-    older = "## real_cls\n\n| Method | 1.8% (round 0) | 3.6% |\n|:---|---:|---:|\n| Random | 30.0 | 40.0 |\n"
+    older = (
+        "## real_cls\n\n| Method | 1.8% (round 0) | 3.6% |\n|:---|---:|---:|\n"
+        "| Random | 30.0 | 40.0 |\n"
+    )
     assert results_blocks.overview_columns(older) == {}
 
 

@@ -14,6 +14,7 @@ claim a run does not make is "-".
 from __future__ import annotations
 
 import argparse
+import json
 import re
 import sys
 from pathlib import Path
@@ -61,10 +62,14 @@ def _claims(results: Path, dataset: str, framework) -> dict[str, dict]:
     return {row["claim_id"]: row for row in read_rows(path)} if path.is_file() else {}
 
 
-def _standin(results: Path, dataset: str) -> bool:
-    """Whether the run's dataset is a procedural stand-in (synthesised, or a folder
-    dataset synthesised for want of a path), as the run's effective config
-    (``RESULTS/config.yaml``) says."""
+def _standin(results: Path, dataset: str, framework) -> bool:
+    """Whether the run's dataset is a procedural stand-in: synthesised (``source:
+    synthetic`` in the run's effective config, ``RESULTS/config.yaml``), or standing in
+    for real data (its summary's ``synthetic_standin``; a folder shared by several
+    configs keeps only the last one's config)."""
+    summary = Path(table_file(framework.folder(results, dataset), "summary.json"))
+    if summary.is_file() and json.loads(summary.read_text()).get("synthetic_standin"):
+        return True
     path = Path(results) / "config.yaml"
     if not path.is_file():
         return False
@@ -111,7 +116,7 @@ def answer_table(embedding_results: Path, supervised_results: Path) -> str:
         for dataset in DATASETS:
             rows = _claims(results, dataset, kind)
             if rows:
-                name = f"{dataset} (stand-in)" if _standin(results, dataset) else dataset
+                name = f"{dataset} (stand-in)" if _standin(results, dataset, kind) else dataset
                 columns.append((f"{kind.name}: {name}, {_units(rows)}", rows))
     if not columns:
         raise ValueError(
