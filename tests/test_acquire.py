@@ -148,6 +148,39 @@ def test_every_strategy_runs_on_a_foreign_classifier(method):
     assert len(set(p.tolist())) == 4 and not set(p.tolist()) & set(LABELED)
 
 
+@pytest.mark.parametrize("model", MODELS)
+def test_variants_made_once_pick_as_the_query_makes_them(model):
+    """make_variants at the query's seed, given to the query, changes no pick; the query
+    then makes no variant; two processes make the same numbers as one."""
+    depth, valid = frames()
+    kw = {"labeled": LABELED, "budget": 5, "seed": 4}
+    alone = spl_al.query("duis", Counted(MODELS[model]()), depth, valid, **kw)
+    variants = spl_al.make_variants(depth, valid, seed=4)
+    assert variants.shape == (N, 4, H, W) and variants.dtype == np.float32
+    assert np.isnan(variants[~np.repeat(valid[:, None], 4, axis=1)]).all()
+    predict = Counted(MODELS[model]())
+    selection = run(Request("duis", predict, depth, valid, variants=variants, **kw))
+    np.testing.assert_array_equal(selection.indices, alone)
+    assert selection.seconds["variants"] == 0 and predict.frames == 5 * (N - len(LABELED))
+    two = spl_al.make_variants(depth[:6], valid[:6], seed=4, n_jobs=2, chunk=4)
+    np.testing.assert_array_equal(two, variants[:6])
+
+
+def test_variants_of_other_frames_are_refused_in_one_sentence():
+    depth, valid = frames()
+    predict = Counted(Classifier())
+    for variants in (np.zeros((N - 1, 4, H, W), np.float32), np.zeros((N, 4, H), np.float32)):
+        with pytest.raises(
+            ValueError, match=r"variants must be \(N, M, H, W\) = \(30, M, 16, 16\)"
+        ) as err:
+            spl_al.query(
+                "duis", predict, depth, valid, labeled=LABELED, budget=3, variants=variants
+            )
+        one_sentence(str(err.value))
+    with pytest.raises(ValueError, match=r"n_jobs must be an integer >= 1, got 0\.$"):
+        spl_al.make_variants(depth, valid, n_jobs=0)
+
+
 def test_without_features_duis_clusters_the_probabilities():
     depth, valid = frames()
     predict = Counted(Segmenter(), features=False)
@@ -216,9 +249,9 @@ def test_bad_requests_are_refused_in_one_sentence():
 
 
 def test_import_spl_al_stays_cheap_and_query_is_the_acquire_function():
-    from spl_al.acquire import query
+    from spl_al.acquire import make_variants, query
 
-    assert spl_al.query is query
+    assert spl_al.query is query and spl_al.make_variants is make_variants
     code = (
         "import sys, spl_al; print(sorted({'numpy', 'torch', 'spl_al.acquire'} & set(sys.modules)))"
     )

@@ -133,6 +133,29 @@ def test_query_segments_with_a_trained_segmenter(models, tmp_path):
     assert tasks[0]["predictions"][0]["result"][0]["type"] == "brushlabels"
 
 
+def test_query_keeps_the_variants_for_the_next_round(models, tmp_path, capsys):
+    """--variants: made and written by the first query, read by the next with the same
+    picks, refused for another folder of frames."""
+    frames = release_folder(tmp_path / "frames", (32, 32), 14)
+    kept = tmp_path / "variants.npz"
+    base = ["query", "--model", str(models["classification"]), "--budget", "3"]
+    plain = [*base, "--frames", str(frames), "--out", str(tmp_path / "plain")]
+    assert cli(plain) == 0
+    first = [*base, "--frames", str(frames), "--variants", str(kept), "--jobs", "2"]
+    assert cli([*first, "--out", str(tmp_path / "a")]) == 0
+    assert "wrote the variants of 14 frames" in capsys.readouterr().out
+    assert cli([*first, "--out", str(tmp_path / "b")]) == 0
+    assert "read the variants of 14 frames" in capsys.readouterr().out
+    picks = [[r["file"] for r in rows(tmp_path / b / "to_label.csv")] for b in ("plain", "a", "b")]
+    assert picks[0] == picks[1] == picks[2]
+    other = release_folder(tmp_path / "other", (32, 32), 14, seed=1)
+    args = [*base, "--frames", str(other), "--variants", str(kept), "--out", str(tmp_path / "c")]
+    assert cli(args) == 2
+    err = capsys.readouterr().err.strip()
+    assert "holds the variants of other frames or settings" in err and len(err.splitlines()) == 1
+    assert not (tmp_path / "c").exists()
+
+
 def test_query_runs_an_onnx_file_with_or_without_its_card(models, tmp_path):
     pytest.importorskip("onnxruntime")
     from spl_al.deploy.export import export_onnx

@@ -2,7 +2,9 @@
 
 ``spl_al.query(method, predict, depth_m, valid, labeled=..., budget=...)`` asks DUIS
 (or any registered strategy) which frames to label next, with your own model's
-``predict`` (``spl_al.acquire``; loaded on first use, so ``import spl_al`` stays cheap).
+``predict``; ``spl_al.make_variants`` makes a pool's SIV variants once for every
+round's query (``spl_al.acquire``; loaded on first use, so ``import spl_al`` stays
+cheap).
 
 Areas, top layer first (docs/design.md is the map; a module imports only its own
 package and the layers below it):
@@ -34,14 +36,15 @@ package and the layers below it):
 """
 
 __version__ = "0.1.0"
-__all__ = ["__version__", "query"]
+__all__ = ["__version__", "make_variants", "query"]
 
 
 def __getattr__(name: str):
-    """``spl_al.query`` (``spl_al.acquire.query``), imported when first asked for."""
-    if name == "query":
+    """``spl_al.query`` and ``spl_al.make_variants`` (``spl_al.acquire``), imported when
+    first asked for."""
+    if name in ("query", "make_variants"):
         # numpy, the strategies and the photon engine on first use: `import spl_al` stays cheap
-        from spl_al.acquire import query
+        from spl_al import acquire
 
-        return query
+        return getattr(acquire, name)
     raise AttributeError(f"module 'spl_al' has no attribute {name!r}")

@@ -52,15 +52,24 @@ pixels receive fewer photons and become voids sooner, as they would on the senso
 unlabeled frames (the most a candidate pool may be, ``strategies.duis``); a
 ``params["n_cand"]`` of more than half the unlabeled frames is refused.
 
+**Variants once per pool.** The variants depend on the frames, the seed and the photon
+settings, never on the model, and making them is most of a DUIS query's time when
+``predict`` is a small network (docs/benchmarks.md#query). ``make_variants`` makes them
+as ``query`` would; pass them to every round's query (``variants=``) and a round
+spends its time in ``predict``. ``n_jobs`` makes them in that many processes (the
+same numbers).
+
 Randomness: the strategy's choices from ``seeding.acquire_rng(seed)``, frame i's
 photons from ``sample_rng(seed, STREAM_VARIANT, i)``; the same seed gives the same
-picks, whatever ``batch_size``.
+picks, whatever ``batch_size`` and ``n_jobs``.
 """
 
 from __future__ import annotations
 
+import multiprocessing
 import time
 from collections.abc import Callable
+from concurrent.futures import ProcessPoolExecutor
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -103,6 +112,10 @@ class Request:
         reconstruct_method: how variants are reconstructed (``spl_al.photon.reconstruct``).
         head: (weight (C, D), bias (C,), dropout p): the classifier's last linear layer on
             its features, logits = features @ weight.T + bias (dropquery only).
+        variants: (N, M, H, W) depth of the frames' SIV variants, NaN at voids
+            (``make_variants``); None: made here. Given, M is their second axis and
+            ``n_variants``, ``conditions``, ``sensor`` and ``reflectance`` are not read.
+        n_jobs: processes that make the variants (1: in this one).
     """
 
     method: str
@@ -120,6 +133,8 @@ class Request:
     conditions: list | None = None
     reconstruct_method: str = "pooled"
     head: tuple | None = None
+    variants: np.ndarray | None = None
+    n_jobs: int = 1
 
 
 @dataclass
@@ -152,6 +167,8 @@ def query(
     params: dict | None = None,
     sensor: SensorParams | None = None,
     reflectance=None,
+    variants=None,
+    n_jobs: int = 1,
 ) -> np.ndarray:
     """The ``budget`` frames strategy ``method`` picks for labeling (module docstring).
 
@@ -169,6 +186,9 @@ def query(
         params: the strategy's parameters, e.g. ``{"n_cand": 24}``.
         sensor: the SPL timing of DUIS's variants (None: the paper's scanning sensor).
         reflectance: (N, H, W) reflectance of the frames (None: uniform).
+        variants: (N, M, H, W) the frames' variants from ``make_variants`` (None: made
+            here, for strategies that read them).
+        n_jobs: processes that make the variants.
 
     Returns:
         (budget,) int64 distinct indices into the frames, none of them in ``labeled``.
@@ -188,8 +208,53 @@ def query(
         params=params,
         sensor=sensor,
         reflectance=reflectance,
+        variants=variants,
+        n_jobs=n_jobs,
     )
     return run(request).indices
+
+
+def make_variants(
+    depth_m,
+    valid,
+    *,
+    seed: int = 0,
+    n_variants: int = DEFAULT_N_VARIANTS,
+    conditions=None,
+    sensor: SensorParams | None = None,
+    reflectance=None,
+    reconstruct_method: str = "pooled",
+    n_jobs: int = 1,
+    chunk: int = DEFAULT_BATCH_SIZE,
+) -> np.ndarray:
+    """DUIS's SIV variants of every frame, as ``query`` makes them at ``seed``.
+
+    ``query(..., seed=s, variants=make_variants(depth_m, valid, seed=s))`` picks the
+    same frames as ``query(..., seed=s)``; made once, they serve every round of a pool.
+
+    Args: as ``Request``'s fields of the same names; ``chunk``: frames per process task.
+
+    Returns:
+        (N, M, H, W) float32 depth in metres, NaN at voids.
+    """
+    depth, mask, refl = _frames(depth_m, valid, reflectance)
+    maker = _VariantMaker(
+        depth,
+        mask,
+        refl,
+        seed=seed,
+        n_variants=n_variants,
+        conditions=conditions,
+        sensor=sensor,
+        method=reconstruct_method,
+        n_jobs=n_jobs,
+    )
+    out = np.empty((len(depth), maker.n_variants, *depth.shape[1:]), np.float32)
+    with maker:
+        for s in range(0, len(depth), max(1, int(chunk))):
+            idx = np.arange(s, min(s + max(1, int(chunk)), len(depth)))
+            out[idx] = maker(idx)
+    return out
 
 
 def default_conditions(n_variants: int) -> list[tuple[float, float]]:
@@ -379,42 +444,126 @@ def _pooled(values: np.ndarray, mask: np.ndarray) -> np.ndarray:
     return np.einsum("nku,nu->nk", v, m) / m.sum(axis=1)[:, None]
 
 
+def _variants_of(depth, valid, refl, uids, seed, conditions, sensor, method) -> np.ndarray:
+    """The variants of frames ``uids`` (a process pool's task: top-level, picklable)."""
+    return synthesize_variants(
+        depth,
+        valid,
+        conditions,
+        rng=[sample_rng(seed, STREAM_VARIANT, int(i)) for i in uids],
+        sensor=sensor,
+        reflectance=refl,
+        method=method,
+    )
+
+
+class _VariantMaker:
+    """The SIV variants of frames by index, in this process or ``n_jobs`` of them; a
+    context manager (the processes start on first use and stop on exit)."""
+
+    def __init__(self, depth, valid, refl, *, seed, n_variants, conditions, sensor, method, n_jobs):
+        self.depth, self.valid, self.refl = depth, valid, refl
+        self.seed, self.sensor, self.method = seed, sensor, method
+        for name, value in (("n_variants", n_variants), ("n_jobs", n_jobs)):
+            if isinstance(value, bool) or not isinstance(value, int | np.integer) or value < 1:
+                raise ValueError(f"{name} must be an integer >= 1, got {value!r}.")
+        self.n_variants, self.n_jobs = int(n_variants), int(n_jobs)
+        self.conditions = (
+            default_conditions(self.n_variants)
+            if conditions is None
+            else [tuple(c) for c in conditions]
+        )
+        if len(self.conditions) < self.n_variants:
+            raise ValueError(
+                f"conditions lists {len(self.conditions)} (msppp, sbr) pairs for "
+                f"n_variants = {self.n_variants}; give at least that many."
+            )
+        self.conditions = self.conditions[: self.n_variants]
+        self.seconds = 0.0
+        self._pool = None
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc):
+        if self._pool is not None:
+            self._pool.shutdown()
+            self._pool = None
+
+    def __call__(self, idx: np.ndarray) -> np.ndarray:
+        """(len(idx), M, H, W) float32 variants of frames ``idx``."""
+        start = time.perf_counter()
+        args = (self.seed, self.conditions, self.sensor, self.method)
+        parts = np.array_split(np.asarray(idx), min(self.n_jobs, len(idx)))
+        if len(parts) > 1 and self._pool is None:
+            # spawn: a forked child of a process running torch's threads can hang
+            context = multiprocessing.get_context("spawn")
+            self._pool = ProcessPoolExecutor(self.n_jobs, mp_context=context)
+        tasks = [
+            (self.depth[i], self.valid[i], None if self.refl is None else self.refl[i], i, *args)
+            for i in parts
+        ]
+        if len(parts) > 1:
+            out = np.concatenate(list(self._pool.map(_variants_of, *zip(*tasks, strict=True))))
+        else:
+            out = _variants_of(*tasks[0])
+        self.seconds += time.perf_counter() - start
+        return out
+
+
+def _given_variants(variants, depth: np.ndarray) -> np.ndarray:
+    """``Request.variants`` checked against the frames: (N, M, H, W) float32."""
+    v = np.asarray(variants)
+    if v.ndim != 4 or v.shape[0] != depth.shape[0] or v.shape[2:] != depth.shape[1:]:
+        raise ValueError(
+            f"variants must be (N, M, H, W) = ({depth.shape[0]}, M, {depth.shape[1]}, "
+            f"{depth.shape[2]}) for these frames (make_variants), got {v.shape}."
+        )
+    if v.shape[1] < 1 or not np.issubdtype(v.dtype, np.floating):
+        raise ValueError(f"variants must hold M >= 1 float depth images a frame, got {v.dtype}.")
+    return v
+
+
 class _Groups:
     """Frames and their variants through the model, reduced to the strategy's inputs."""
 
-    def __init__(self, request: Request, model: _Model, depth, valid, refl, n_variants: int):
-        self.request, self.model = request, model
-        self.depth, self.valid, self.refl = depth, valid, refl
-        self.n_variants = n_variants
-        self.conditions = (
-            default_conditions(n_variants)
-            if request.conditions is None
-            else [tuple(c) for c in request.conditions]
-        )
-        if n_variants and len(self.conditions) < n_variants:
-            raise ValueError(
-                f"conditions lists {len(self.conditions)} (msppp, sbr) pairs for "
-                f"n_variants = {n_variants}; give at least that many."
+    def __init__(self, request: Request, model: _Model, depth, valid, refl):
+        self.request, self.model, self.depth = request, model, depth
+        self.given = None if request.variants is None else _given_variants(request.variants, depth)
+        self.maker = None
+        if self.given is None:
+            self.maker = _VariantMaker(
+                depth,
+                valid,
+                refl,
+                seed=request.seed,
+                n_variants=request.n_variants,
+                conditions=request.conditions,
+                sensor=request.sensor,
+                method=request.reconstruct_method,
+                n_jobs=request.n_jobs,
             )
-        self.variant_seconds = 0.0
+            self.n_variants = self.maker.n_variants
+        else:
+            self.n_variants = self.given.shape[1]
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc):
+        if self.maker is not None:
+            self.maker.__exit__(*exc)
+
+    @property
+    def variant_seconds(self) -> float:
+        return 0.0 if self.maker is None else self.maker.seconds
 
     def images(self, idx: np.ndarray, with_variants: bool):
         """(depth, valid) of frames ``idx`` and their variants, (b, G, H, W)."""
         d = self.depth[idx][:, None]
-        if with_variants and self.n_variants:
-            start = time.perf_counter()
-            rngs = [sample_rng(self.request.seed, STREAM_VARIANT, int(i)) for i in idx]
-            var = synthesize_variants(
-                self.depth[idx],
-                self.valid[idx],
-                self.conditions[: self.n_variants],
-                rng=rngs,
-                sensor=self.request.sensor,
-                reflectance=None if self.refl is None else self.refl[idx],
-                method=self.request.reconstruct_method,
-            )
-            self.variant_seconds += time.perf_counter() - start
-            d = np.concatenate([d, var], axis=1)
+        if with_variants:
+            var = self.maker(idx) if self.given is None else self.given[idx]
+            d = np.concatenate([d, var.astype(np.float32, copy=False)], axis=1)
         return d, np.isfinite(d)
 
     def outputs(self, idx: np.ndarray, with_variants: bool, pixel_features: bool = False):
@@ -454,11 +603,9 @@ def run(request: Request) -> Selection:
     unlabeled = np.setdiff1d(np.arange(n), labeled)
     strategy = _strategy(request.method, request.params, len(unlabeled))
     model = _Model(request.predict, request.batch_size)
-    n_variants = int(request.n_variants)
-    if n_variants < 1:
-        raise ValueError(f"n_variants must be an integer >= 1, got {request.n_variants!r}.")
-    groups = _Groups(request, model, depth, valid, refl, n_variants)
-    arrays = _inputs(request, frozenset(strategy.needs), groups, unlabeled, labeled)
+    groups = _Groups(request, model, depth, valid, refl)
+    with groups:
+        arrays = _inputs(request, frozenset(strategy.needs), groups, unlabeled, labeled)
     _fill_required(strategy, model)
     inputs = StrategyInputs(unlabeled_idx=unlabeled, labeled_idx=labeled, **arrays)
     select_start = time.perf_counter()

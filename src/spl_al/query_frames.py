@@ -22,6 +22,11 @@
   ``contact_sheet.png``, ``classes.csv``, ``to_label.csv`` and the Label Studio
   import with the model's predictions as pre-annotations. A frame's sample id is its
   position in the folder's sorted listing.
+- ``--variants FILE.npz``: DUIS's SIV variants of the folder's frames, made once and
+  read by every later query (they depend on the frames, the seed, the sensor and M,
+  never on the model; ``spl_al.acquire.make_variants``): made and written when FILE is
+  absent, read when it holds the variants of the same frames and settings, refused in
+  one sentence when it holds others. ``--jobs`` makes them in that many processes.
 
 Every input is read and the query made before anything is written; the batch folder
 appears complete or not at all. A user error is one line on stderr, exit code 2.
@@ -30,6 +35,7 @@ appears complete or not at all. A user error is one line on stderr, exit code 2.
 from __future__ import annotations
 
 import argparse
+import hashlib
 import json
 import sys
 from dataclasses import dataclass
@@ -42,8 +48,10 @@ from spl_al.acquire import (
     DEFAULT_N_VARIANTS,
     Request,
     default_conditions,
+    make_variants,
     run,
 )
+from spl_al.atomic import atomic_write
 from spl_al.data.dataset import Dataset, sensor_from_dict
 from spl_al.data.label_files import read_rows
 from spl_al.data.seeds import STREAM_VARIANT
@@ -191,6 +199,8 @@ class FolderQuery:
         overrides, depth_key, weights: how frames are read, as ``spl-al predict``'s.
         sensor: DUIS's variants' sensor (default the card's, else the paper's scanning
             sensor); n_variants: their number, M; batch_size: frames per forward pass.
+        variants: the .npz file DUIS's variants are kept in between queries (module
+            docstring); n_jobs: processes that make them.
     """
 
     model: str | Path
@@ -210,6 +220,8 @@ class FolderQuery:
     sensor: SensorParams | None = None
     n_variants: int = DEFAULT_N_VARIANTS
     batch_size: int = DEFAULT_BATCH_SIZE
+    variants: str | Path | None = None
+    n_jobs: int = 1
 
 
 def query_frames(job: FolderQuery, log=print) -> Path:
@@ -236,7 +248,10 @@ def query_frames(job: FolderQuery, log=print) -> Path:
         sensor=job.sensor or scorer.sensor,
         batch_size=job.batch_size,
         n_variants=job.n_variants,
+        n_jobs=job.n_jobs,
     )
+    if job.variants and frozenset(get(job.method, **(job.params or {})).needs) & GROUP_NEEDS:
+        request.variants = kept_variants(Path(job.variants), request, log)
     picked = run(request).indices
     batch, probs = _batch(request, scorer, frames, picked)
     labels_file = Path(job.labels_file) if job.labels_file else out.with_name(f"{out.name}.csv")
@@ -277,8 +292,10 @@ def _batch(request: Request, scorer: Scorer, frames, picked) -> tuple[Dataset, n
             f"{scorer.name} gives {probs.shape[1]} classes but {len(classes)} names are known "
             f"({','.join(classes)})."
         )
-    variants = None
-    if frozenset(get(request.method, **(request.params or {})).needs) & GROUP_NEEDS:
+    variants = None if request.variants is None else request.variants[picked]
+    if variants is None and frozenset(get(request.method, **(request.params or {})).needs) & (
+        GROUP_NEEDS
+    ):
         variants = synthesize_variants(
             depth[picked],
             valid[picked],
@@ -290,6 +307,60 @@ def _batch(request: Request, scorer: Scorer, frames, picked) -> tuple[Dataset, n
     return _batch_dataset(
         frames, picked, depth, task=task, classes=classes, variants=variants
     ), probs
+
+
+def variants_key(request: Request) -> str:
+    """What a query's variants depend on, as one hash: the frames' depth, the seed, the
+    sensor, M and the reconstruction method."""
+    digest = hashlib.sha256(np.ascontiguousarray(request.depth_m, np.float32).tobytes())
+    settings = {
+        "seed": request.seed,
+        "sensor": repr(request.sensor or SensorParams.paper_real()),
+        "conditions": default_conditions(request.n_variants),
+        "reconstruct_method": request.reconstruct_method,
+    }
+    digest.update(json.dumps(settings, sort_keys=True).encode())
+    return digest.hexdigest()
+
+
+def kept_variants(path: Path, request: Request, log=print) -> np.ndarray:
+    """The variants of ``request``'s frames kept in ``path``: read when they are the
+    same frames and settings (``variants_key``), else made and written there when
+    ``path`` does not exist; a file of other frames or settings is refused."""
+    key = variants_key(request)
+    if path.exists():
+        try:
+            with np.load(path) as kept:
+                kept_key, variants = str(kept["key"]), kept["variant_depth_m"]
+        except (OSError, ValueError, KeyError) as exc:
+            raise ValueError(
+                f"{path}: not a variants file of spl-al query ({exc}); give a new path."
+            ) from None
+        if kept_key != key:
+            raise ValueError(
+                f"{path}: holds the variants of other frames or settings (the frames, "
+                "--seed, --sensor, --n-variants or --reconstruct-method differ); give a new "
+                "path or delete it to make them anew."
+            )
+        log(f"{path}: read the variants of {len(variants)} frames")
+        return variants
+    variants = make_variants(
+        request.depth_m,
+        request.valid,
+        seed=request.seed,
+        n_variants=request.n_variants,
+        sensor=request.sensor,
+        reconstruct_method=request.reconstruct_method,
+        n_jobs=request.n_jobs,
+    )
+
+    def write(tmp: Path) -> None:
+        with open(tmp, "wb") as f:  # a file object: np.savez would append .npz to a name
+            np.savez(f, key=np.array(key), variant_depth_m=variants)
+
+    atomic_write(path, write)
+    log(f"{path}: wrote the variants of {len(variants)} frames for the next queries")
+    return variants
 
 
 def _split(out):
@@ -367,6 +438,8 @@ def main(argv: list[str] | None = None) -> int:
     add("--sensor", choices=SENSORS, help="sensor of DUIS's variants (default: card's)")
     add("--n-variants", type=int, default=DEFAULT_N_VARIANTS, help="DUIS's variants per frame")
     add("--batch-size", type=int, default=DEFAULT_BATCH_SIZE, help="frames per forward pass")
+    add("--variants", metavar="FILE.npz", help="keep DUIS's variants here for the next queries")
+    add("--jobs", type=int, default=1, help="processes that make DUIS's variants")
     capture_arguments(parser, method_flag="--reconstruct-method")
     args = parser.parse_args(argv)
     try:
@@ -389,6 +462,8 @@ def main(argv: list[str] | None = None) -> int:
                 sensor=getattr(SensorParams, args.sensor)() if args.sensor else None,
                 n_variants=args.n_variants,
                 batch_size=args.batch_size,
+                variants=args.variants,
+                n_jobs=args.jobs,
             )
         )
     except (ValueError, OSError) as exc:
