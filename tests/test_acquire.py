@@ -173,9 +173,7 @@ def test_variants_of_other_frames_are_refused_in_one_sentence():
         with pytest.raises(
             ValueError, match=r"variants must be \(N, M, H, W\) = \(30, M, 16, 16\)"
         ) as err:
-            spl_al.query(
-                "duis", predict, depth, valid, labeled=LABELED, budget=3, variants=variants
-            )
+            run(Request("duis", predict, depth, valid, budget=3, variants=variants))
         one_sentence(str(err.value))
     with pytest.raises(ValueError, match=r"n_jobs must be an integer >= 1, got 0\.$"):
         spl_al.make_variants(depth, valid, n_jobs=0)

@@ -55,9 +55,9 @@ unlabeled frames (the most a candidate pool may be, ``strategies.duis``); a
 **Variants once per pool.** The variants depend on the frames, the seed and the photon
 settings, never on the model, and making them is most of a DUIS query's time when
 ``predict`` is a small network (docs/benchmarks.md#query). ``make_variants`` makes them
-as ``query`` would; pass them to every round's query (``variants=``) and a round
-spends its time in ``predict``. ``n_jobs`` makes them in that many processes (the
-same numbers).
+as ``query`` would; give them to every round's ``run(Request(..., variants=...))`` and
+a round spends its time in ``predict``. ``n_jobs`` makes them in that many processes
+(the same numbers).
 
 Randomness: the strategy's choices from ``seeding.acquire_rng(seed)``, frame i's
 photons from ``sample_rng(seed, STREAM_VARIANT, i)``; the same seed gives the same
@@ -167,8 +167,6 @@ def query(
     params: dict | None = None,
     sensor: SensorParams | None = None,
     reflectance=None,
-    variants=None,
-    n_jobs: int = 1,
 ) -> np.ndarray:
     """The ``budget`` frames strategy ``method`` picks for labeling (module docstring).
 
@@ -186,9 +184,6 @@ def query(
         params: the strategy's parameters, e.g. ``{"n_cand": 24}``.
         sensor: the SPL timing of DUIS's variants (None: the paper's scanning sensor).
         reflectance: (N, H, W) reflectance of the frames (None: uniform).
-        variants: (N, M, H, W) the frames' variants from ``make_variants`` (None: made
-            here, for strategies that read them).
-        n_jobs: processes that make the variants.
 
     Returns:
         (budget,) int64 distinct indices into the frames, none of them in ``labeled``.
@@ -208,8 +203,6 @@ def query(
         params=params,
         sensor=sensor,
         reflectance=reflectance,
-        variants=variants,
-        n_jobs=n_jobs,
     )
     return run(request).indices
 
@@ -229,8 +222,9 @@ def make_variants(
 ) -> np.ndarray:
     """DUIS's SIV variants of every frame, as ``query`` makes them at ``seed``.
 
-    ``query(..., seed=s, variants=make_variants(depth_m, valid, seed=s))`` picks the
-    same frames as ``query(..., seed=s)``; made once, they serve every round of a pool.
+    ``run(Request(..., seed=s, variants=make_variants(depth_m, valid, seed=s)))`` picks
+    the same frames as ``query(..., seed=s)``; made once, they serve every round of a
+    pool.
 
     Args: as ``Request``'s fields of the same names; ``chunk``: frames per process task.
 
@@ -444,16 +438,26 @@ def _pooled(values: np.ndarray, mask: np.ndarray) -> np.ndarray:
     return np.einsum("nku,nu->nk", v, m) / m.sum(axis=1)[:, None]
 
 
-def _variants_of(depth, valid, refl, uids, seed, conditions, sensor, method) -> np.ndarray:
+@dataclass(frozen=True)
+class _Photons:
+    """What a frame's variants are made with, besides the frame."""
+
+    seed: int
+    conditions: list
+    sensor: SensorParams | None
+    method: str
+
+
+def _variants_of(depth, valid, refl, uids, photons: _Photons) -> np.ndarray:
     """The variants of frames ``uids`` (a process pool's task: top-level, picklable)."""
     return synthesize_variants(
         depth,
         valid,
-        conditions,
-        rng=[sample_rng(seed, STREAM_VARIANT, int(i)) for i in uids],
-        sensor=sensor,
+        photons.conditions,
+        rng=[sample_rng(photons.seed, STREAM_VARIANT, int(i)) for i in uids],
+        sensor=photons.sensor,
         reflectance=refl,
-        method=method,
+        method=photons.method,
     )
 
 
@@ -493,14 +497,14 @@ class _VariantMaker:
     def __call__(self, idx: np.ndarray) -> np.ndarray:
         """(len(idx), M, H, W) float32 variants of frames ``idx``."""
         start = time.perf_counter()
-        args = (self.seed, self.conditions, self.sensor, self.method)
+        photons = _Photons(self.seed, self.conditions, self.sensor, self.method)
         parts = np.array_split(np.asarray(idx), min(self.n_jobs, len(idx)))
         if len(parts) > 1 and self._pool is None:
             # spawn: a forked child of a process running torch's threads can hang
             context = multiprocessing.get_context("spawn")
             self._pool = ProcessPoolExecutor(self.n_jobs, mp_context=context)
         tasks = [
-            (self.depth[i], self.valid[i], None if self.refl is None else self.refl[i], i, *args)
+            (self.depth[i], self.valid[i], None if self.refl is None else self.refl[i], i, photons)
             for i in parts
         ]
         if len(parts) > 1:
