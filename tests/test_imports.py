@@ -35,6 +35,7 @@ LAYERS: list[tuple[str, list[str]]] = [
             "spl_al.acquire",
             "spl_al.scoring",
             "spl_al.linear_probe",
+            "spl_al.dense_probe",
         ],
     ),
     ("learning", ["spl_al.strategies", "spl_al.training"]),

@@ -22,9 +22,10 @@ package and the layers below it):
 - active learning: ``spl_al.pool`` (labeled sets, the simulated oracle),
   ``spl_al.round_query`` (a round's query), ``spl_al.acquire`` (``spl_al.query``: any
   strategy with a model of your own), ``spl_al.scoring`` (the forward passes a strategy
-  needs), ``spl_al.linear_probe`` (the embedding framework's classifier).
+  needs), ``spl_al.linear_probe`` (the embedding framework's classifier),
+  ``spl_al.dense_probe`` (its per-pixel counterpart for segmentation).
 - learning: ``spl_al.strategies`` (every acquisition strategy behind one registry),
-  ``spl_al.training`` (training, evaluation, precision, the self-supervised encoder).
+  ``spl_al.training`` (training, evaluation, precision, the self-supervised encoders).
 - ``spl_al.models`` (CNN, ResNet-18, U-Net, PointNet++), ``spl_al.data`` (datasets,
   their sources and files, SIV variants), ``spl_al.photon`` (the SPL measurement
   model, photon simulation, reconstruction, captures), ``spl_al.scenes`` (procedural

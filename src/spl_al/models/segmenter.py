@@ -91,6 +91,14 @@ class UNet(nn.Module):
     def forward(self, x: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
         """x (B, 2, H, W) -> logits (B, C, H, W), features (B, d, H, W)."""
         h, w = x.shape[-2:]
+        features = self.decoder_maps(x)[-1][..., :h, :w]
+        return self.head(features), features
+
+    def decoder_maps(self, x: torch.Tensor) -> list[torch.Tensor]:
+        """x (B, 2, H, W) -> the bottleneck's map and each decoder level's, coarsest
+        first (widths width * 2**depth .. width), on the input zero-padded to a multiple
+        of 2**depth."""
+        h, w = x.shape[-2:]
         if self.absolute:
             x = _absolute_input(x)
         step = 2**self.depth
@@ -102,10 +110,11 @@ class UNet(nn.Module):
             x = block(x if k == 0 else F.max_pool2d(x, 2))
             skips.append(x)
         x = skips.pop()
+        maps = [x]
         for up, merge in zip(self.up, self.merge, strict=True):
             x = merge(torch.cat([skips.pop(), up(x)], dim=1))
-        features = x[..., :h, :w]
-        return self.head(features), features
+            maps.append(x)
+        return maps
 
 
 def _absolute_input(x: torch.Tensor) -> torch.Tensor:
