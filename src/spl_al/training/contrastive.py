@@ -207,24 +207,12 @@ def train_encoder(
         The encoder in eval mode, on the CPU, and its training record: steps, images
         per step, final loss, seconds and the forward-backward FLOPs per step.
     """
-    depth_m = np.asarray(depth_m)
-    if depth_m.ndim != 4 or np.shape(valid) != depth_m.shape:
-        raise ValueError(
-            f"depth_m and valid must both be (N, G, H, W), got {depth_m.shape} and "
-            f"{np.shape(valid)}."
-        )
-    n, g, h, w = depth_m.shape
-    if n < 2:
-        raise ValueError(f"the encoder needs at least 2 frames to contrast, got {n}.")
-    dev = resolve_device(device)
-    ieee_fp32()
     started = time.perf_counter()
-    gen = torch.Generator().manual_seed(int(cfg.seed))
-    with torch.random.fork_rng(devices=[]):
-        torch.manual_seed(int(cfg.seed))
-        encoder = Encoder(cfg)
-    x = model_input(encoder, depth_m.reshape(-1, h, w), np.asarray(valid).reshape(-1, h, w))
-    x_all = x.view(n, g, *x.shape[1:]).to(dev)  # (N, G, 2, H, W)
+    encoder, x_all, gen = seeded_encoder(
+        depth_m, valid, lambda: Encoder(cfg), seed=cfg.seed, device=device, what="frames"
+    )
+    n, g, _, h, w = x_all.shape
+    dev = x_all.device
     # channels-last: oneDNN's convolutions run ~20% faster on it (docs/benchmarks.md)
     encoder.to(dev, memory_format=torch.channels_last).train()
     batch = min(int(cfg.batch_size), n)
@@ -261,6 +249,36 @@ def train_encoder(
         },
     }
     return encoder, record
+
+
+def seeded_encoder(depth_m, valid, build, *, seed: int, device, what: str):
+    """The checked views of a self-supervised encoder's training, and the encoder.
+
+    Checks that ``depth_m`` and ``valid`` are (N, G, H, W) with N >= 2 (``what`` names
+    the N things in the refusal), sets fp32 matmuls, builds the module by ``build()``
+    under torch's seed ``seed`` (the caller's random state is kept) and stacks its
+    inputs (``model_input``).
+
+    Returns:
+        (encoder, x_all (N, G, C, H, W) on ``device``, the CPU generator of ``seed``).
+    """
+    depth_m = np.asarray(depth_m)
+    if depth_m.ndim != 4 or np.shape(valid) != depth_m.shape:
+        raise ValueError(
+            f"depth_m and valid must both be (N, G, H, W), got {depth_m.shape} and "
+            f"{np.shape(valid)}."
+        )
+    n, g, h, w = depth_m.shape
+    if n < 2:
+        raise ValueError(f"the encoder needs at least 2 {what} to contrast, got {n}.")
+    dev = resolve_device(device)
+    ieee_fp32()
+    gen = torch.Generator().manual_seed(int(seed))
+    with torch.random.fork_rng(devices=[]):
+        torch.manual_seed(int(seed))
+        encoder = build()
+    x = model_input(encoder, depth_m.reshape(-1, h, w), np.asarray(valid).reshape(-1, h, w))
+    return encoder, x.view(n, g, *x.shape[1:]).to(dev), gen
 
 
 def _fit(encoder: Encoder, x_all: torch.Tensor, cfg: EncoderConfig, *, gen, batch, progress):

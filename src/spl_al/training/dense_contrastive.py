@@ -41,8 +41,14 @@ from torch import nn
 
 from spl_al.models import model_input
 from spl_al.models.segmenter import UNet
-from spl_al.training.contrastive import chance_loss, device_name, learning_rate, nt_xent
-from spl_al.training.device import deterministic_algorithms, ieee_fp32, resolve_device
+from spl_al.training.contrastive import (
+    chance_loss,
+    device_name,
+    learning_rate,
+    nt_xent,
+    seeded_encoder,
+)
+from spl_al.training.device import deterministic_algorithms, resolve_device
 from spl_al.training.fit import ProgressLog
 from spl_al.training.recipe import known_fields
 from spl_al.training.sgd import SGD
@@ -316,24 +322,13 @@ def train_dense_encoder(
         The encoder in eval mode on the CPU, and its record: steps, pixels per step,
         final and chance loss, seconds, feature_dim, where it trained.
     """
-    depth_m = np.asarray(depth_m)
-    if depth_m.ndim != 4 or np.shape(valid) != depth_m.shape:
-        raise ValueError(
-            f"depth_m and valid must both be (N, G, H, W), got {depth_m.shape} and "
-            f"{np.shape(valid)}."
-        )
-    n, g, h, w = depth_m.shape
-    if n < 2:
-        raise ValueError(f"the dense encoder needs at least 2 scans, got {n}.")
-    dev = resolve_device(device)
-    ieee_fp32()
     started = time.perf_counter()
-    gen = torch.Generator().manual_seed(int(cfg.seed))
-    with torch.random.fork_rng(devices=[]):
-        torch.manual_seed(int(cfg.seed))
-        encoder = DenseEncoder(cfg)
-    x = model_input(encoder, depth_m.reshape(-1, h, w), np.asarray(valid).reshape(-1, h, w))
-    x_all = x.view(n, g, *x.shape[1:]).to(dev)  # (N, G, 2, H, W)
+    encoder, x_all, gen = seeded_encoder(
+        depth_m, valid, lambda: DenseEncoder(cfg), seed=cfg.seed, device=device, what="scans"
+    )
+    n, g, _, h, w = x_all.shape
+    dev = x_all.device
+    depth_m = np.asarray(depth_m)
     regions = None
     if cfg.unit == "region":  # of the observed scans: every view of a scan shares them
         ids = scan_regions(
