@@ -244,9 +244,10 @@ def make_variants(
         n_jobs=n_jobs,
     )
     out = np.empty((len(depth), maker.n_variants, *depth.shape[1:]), np.float32)
+    step = max(1, int(chunk))
     with maker:
-        for s in range(0, len(depth), max(1, int(chunk))):
-            idx = np.arange(s, min(s + max(1, int(chunk)), len(depth)))
+        for s in range(0, len(depth), step):
+            idx = np.arange(s, min(s + step, len(depth)))
             out[idx] = maker(idx)
     return out
 
@@ -467,7 +468,6 @@ class _VariantMaker:
 
     def __init__(self, depth, valid, refl, *, seed, n_variants, conditions, sensor, method, n_jobs):
         self.depth, self.valid, self.refl = depth, valid, refl
-        self.seed, self.sensor, self.method = seed, sensor, method
         for name, value in (("n_variants", n_variants), ("n_jobs", n_jobs)):
             if isinstance(value, bool) or not isinstance(value, int | np.integer) or value < 1:
                 raise ValueError(f"{name} must be an integer >= 1, got {value!r}.")
@@ -483,6 +483,7 @@ class _VariantMaker:
                 f"n_variants = {self.n_variants}; give at least that many."
             )
         self.conditions = self.conditions[: self.n_variants]
+        self.photons = _Photons(seed, self.conditions, sensor, method)
         self.seconds = 0.0
         self._pool = None
 
@@ -497,14 +498,19 @@ class _VariantMaker:
     def __call__(self, idx: np.ndarray) -> np.ndarray:
         """(len(idx), M, H, W) float32 variants of frames ``idx``."""
         start = time.perf_counter()
-        photons = _Photons(self.seed, self.conditions, self.sensor, self.method)
         parts = np.array_split(np.asarray(idx), min(self.n_jobs, len(idx)))
         if len(parts) > 1 and self._pool is None:
             # spawn: a forked child of a process running torch's threads can hang
             context = multiprocessing.get_context("spawn")
             self._pool = ProcessPoolExecutor(self.n_jobs, mp_context=context)
         tasks = [
-            (self.depth[i], self.valid[i], None if self.refl is None else self.refl[i], i, photons)
+            (
+                self.depth[i],
+                self.valid[i],
+                None if self.refl is None else self.refl[i],
+                i,
+                self.photons,
+            )
             for i in parts
         ]
         if len(parts) > 1:

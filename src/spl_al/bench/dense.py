@@ -99,10 +99,11 @@ def references(data, entry: dict, sets: dict, held_out, *, network: bool) -> dic
     return out
 
 
-def recipe_rows(data, fit_idx, held_out, sets: dict, *, recipe: dict, args, name: str) -> list:
+def recipe_rows(data, split, sets: dict, *, local_px, recipe: dict, args, name: str) -> list:
     """Each of ``args.encoders`` encoders of one recipe: its record and its probes'
-    scores per budget, alone ("dense") and beside the local features ("dense_local")."""
-    local_px = pixel_features(data.depth_m, data.valid).astype(np.float32)
+    scores per budget, alone ("dense") and beside the local features ``local_px`` (N, H,
+    W, 9) ("dense_local"); ``split``: (fit, validation) scan indices."""
+    fit_idx, held_out = split
     rows = []
     for k in range(args.encoders):
         started = time.perf_counter()
@@ -158,11 +159,12 @@ def main(argv: list[str] | None = None) -> int:
     }
     scores = {"budgets": list(sets), "recipes": {}}
     scores |= references(data, entry, sets, held_out, network=args.network)
-    for name, recipe in [parse_recipe(r) for r in (args.recipe or ["default:"])]:
-        if args.encoders:
-            scores["recipes"][name] = recipe_rows(
-                data, fit_idx, held_out, sets, recipe=recipe, args=args, name=name
-            )
+    recipes = [parse_recipe(r) for r in (args.recipe or ["default:"])] if args.encoders else []
+    local_px = pixel_features(data.depth_m, data.valid).astype(np.float32) if recipes else None
+    for name, recipe in recipes:
+        scores["recipes"][name] = recipe_rows(
+            data, (fit_idx, held_out), sets, local_px=local_px, recipe=recipe, args=args, name=name
+        )
     print()
     print(render(scores, args.only, len(data.train_idx)))
     if args.out:
