@@ -217,6 +217,20 @@ def test_estimate_counts_what_the_plan_runs(tmp_path):
     assert counts["forward_images"] == counts["trainings"] * n_test + 2 * (2 + 5) * scored
 
 
+@pytest.mark.parametrize("strategy", ["random", "duis", "dropquery"])
+def test_the_estimate_times_every_embedding_round_it_plans(strategy):
+    """A round of each framework's probe is timed for every strategy a config may plan,
+    DropQuery (its own dropout head) among them, classification and segmentation."""
+    from spl_al.bench import estimate
+    from spl_al.experiment.plan import MethodSpec
+
+    params = {"n_cand": 40} if strategy == "duis" else {}
+    spec = MethodSpec(name=strategy, strategy=strategy, params=params, use_variants=True)
+    sizes = dict(n_pool=40, m=2, n_labeled=6, repeats=1)
+    assert estimate.probe_round_seconds(spec, n_test=20, dim=16, **sizes) > 0
+    assert estimate.dense_round_seconds(spec, n_test=500, dim=12, **sizes) > 0
+
+
 @pytest.mark.parametrize("name", bench_main.available())
 def test_every_bench_answers_help(name, capsys):
     """`python -m spl_al.bench NAME --help` prints a usage line and exits 0 for every

@@ -400,6 +400,40 @@ def test_the_default_run_s_embedding_framework_has_12_encoders_of_10_seeds():
     assert "12 self-supervised encoders" in text and "seeds 1-120 (120)" in text
 
 
+def test_the_street_config_s_embedding_framework_has_12_encoders_and_100_seeds():
+    """street_seg and street_pc in config/street.yaml's embedding framework: at least
+    12 encoders each (street_pc's its own), at least 100 run seeds, the paper's five
+    baselines, the low-budget ones and DropQuery, every table kind."""
+    from spl_al.experiment.encoders import encoder_seeds
+    from spl_al.experiment.plan import budget_families, dataset_runs
+
+    config = _merged("street.yaml")
+    seeds = {}
+    for dataset in ("street_seg", "street_pc"):
+        entry = config["datasets"][dataset]
+        seeds[dataset] = encoder_seeds(entry)
+        assert len(seeds[dataset]) >= 12
+        runs = dataset_runs(config, dataset, "embedding")
+        assert len({seed for _m, seed in runs}) >= 100
+        families = budget_families(config, dataset, framework="embedding")
+        for method in ("random", "entropy", "margin", "coreset", "badge", "typiclust"):
+            assert method in families["paper"] and f"syn_{method}" in families["matched"]
+        assert "dropquery" in families["paper"]
+        experiments = entry["embedding"]["experiments"]
+        assert {"budget", "levels", "ablation", "sensitivity"} <= set(experiments)
+    assert not set(seeds["street_seg"]) & set(seeds["street_pc"])  # independent draws
+
+
+def test_dropquery_on_segmentation_runs_in_the_embedding_framework_alone():
+    """DropQuery reads a classifier's last layer: a segmenting network has none, the
+    dense probe gives it one."""
+    config = _merged("street.yaml")
+    check_plan(config)  # the street embedding framework runs dropquery
+    config["datasets"]["street_seg"]["experiments"]["budget"]["methods"].append("dropquery")
+    with pytest.raises(ValueError, match=r"'methods\.dropquery'.*street_seg is a segmentation"):
+        check_plan(config)
+
+
 @pytest.mark.parametrize(
     ("change", "key", "message"),
     [

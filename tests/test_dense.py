@@ -7,10 +7,14 @@ probe weighs classes as the networks do and always answers with C columns.
 
 from __future__ import annotations
 
+import itertools
+from dataclasses import replace
+
 import numpy as np
 import pytest
 import torch
 
+from spl_al.data import Dataset
 from spl_al.dense_probe import DenseProbe, class_weights
 from spl_al.training.dense_contrastive import (
     DenseEncoderConfig,
@@ -146,10 +150,11 @@ def test_the_probe_answers_c_columns_and_separates_what_is_separable():
         DenseProbe(4).fit(x[:0], y[:0], np.random.default_rng(0))
 
 
-def dense_pool(n=10, g=3, h=4, w=5, d=3, seed=0):
+def dense_pool(n=10, g=3, units=20, d=3, seed=0):
+    """(n, g, units, d) features, (n, g, units) validity and (n, units) classes."""
     rng = np.random.default_rng(seed)
-    feats = rng.normal(size=(n, g, h, w, d)).astype(np.float32)
-    valid = rng.random((n, g, h, w)) > 0.2
+    feats = rng.normal(size=(n, g, units, d)).astype(np.float32)
+    valid = rng.random((n, g, units)) > 0.2
     labels = (feats[:, 0, ..., 0] > 0).astype(int) + (feats[:, 0, ..., 1] > 0)
     return feats, valid, labels
 
@@ -213,7 +218,7 @@ def test_dense_probe_inputs_serve_every_segmentation_strategy():
             strategy.n_classes = 3
         picks = strategy.select(inputs, 2, np.random.default_rng(0))
         assert len(set(picks.tolist())) == 2 and set(picks.tolist()) <= set(unlabeled.tolist())
-    with pytest.raises(ValueError, match="DropQuery is for classification"):
+    with pytest.raises(ValueError, match="takes a head"):
         dense_probe_inputs(
             probe,
             feats,
@@ -223,3 +228,143 @@ def test_dense_probe_inputs_serve_every_segmentation_strategy():
             labeled_idx=labeled,
             n_images=1,
         )
+
+
+def test_dropquery_passes_a_head_over_the_pooled_features():
+    """DropQuery in the dense setting: a dropout-trained head on the labeled units,
+    its passes over each scan's pooled features (the mean of its units' logits)."""
+    from spl_al.dense_probe import dense_probe_inputs, pooled_features
+    from spl_al.linear_probe import DropoutHead
+    from spl_al.strategies import get
+
+    feats, valid, labels = dense_pool(seed=2)
+    labeled, unlabeled = np.array([0, 1, 2]), np.arange(3, 10)
+    keep = valid[labeled, 0]
+    x, y = feats[labeled, 0][keep], labels[labeled][keep]
+    probe = DenseProbe(3).fit(x, y, np.random.default_rng(0))
+    head = DropoutHead(3).fit(x, y, np.random.default_rng(0)).head()
+    strategy = get("dropquery")
+    inputs = dense_probe_inputs(
+        probe,
+        feats,
+        valid,
+        strategy.needs,
+        unlabeled_idx=unlabeled,
+        labeled_idx=labeled,
+        n_images=1,
+        head=head,
+    )
+    np.testing.assert_allclose(
+        inputs.features, pooled_features(feats[unlabeled, 0], valid[unlabeled, 0]), rtol=1e-5
+    )
+    np.testing.assert_array_equal(inputs.head_weight, head[0])
+    picks = strategy.select(inputs, 2, np.random.default_rng(0))
+    assert len(set(picks.tolist())) == 2 and set(picks.tolist()) <= set(unlabeled.tolist())
+
+
+DENSE_ENCODER = {
+    "width": 8,
+    "depth": 2,
+    "projection_dim": 8,
+    "steps": 30,
+    "batch_size": 6,
+    "pixels": 32,
+}
+DENSE_VARIANTS = {"n": 2, "shards": 1, "seed": 0}
+
+
+@pytest.fixture(scope="module")
+def street(tmp_path_factory):
+    """A small segmentation dataset with 2 variants a scan, and one dense encoder's files."""
+    from spl_al.data import make_segmentation_dataset
+    from spl_al.data.variants import make_variants
+    from spl_al.experiment.embedding_steps import train_encoder
+
+    folder = tmp_path_factory.mktemp("street")
+    data = make_segmentation_dataset(n_samples=40, image_shape=(16, 32), seed=0)
+    data = make_variants(data, n_variants=2, seed=0)
+    path = folder / "dataset.npz"
+    data.save(path)
+    out = {k: folder / f"enc.{k}" for k in ("encoder", "card", "embeddings")}
+    card = train_encoder(
+        path, dataset="street", encoder=DENSE_ENCODER, variants=DENSE_VARIANTS, out=out
+    )
+    return path, Dataset.load(path), out, card
+
+
+def test_a_dense_encoder_keeps_the_same_units_of_every_image_and_every_test_pixel(street):
+    """The embeddings a segmentation run reads: each training scan's units, drawn from
+    its observed valid pixels, at the same places in its variants; every valid test
+    pixel; the encoder's features beside the nine local ones."""
+    from spl_al.experiment.dense_embedding import UNITS_PER_SCAN
+
+    _, data, out, card = street
+    with np.load(out["embeddings"]) as f:
+        train, units, tvalid, test = f["train"], f["train_units"], f["train_valid"], f["test"]
+        test_units = f["test_units"]
+    n = len(data.train_idx)
+    _, valid = data.groups(data.train_idx)
+    assert train.shape == (n, 3, UNITS_PER_SCAN, 8 + 9) and train.dtype == np.float16
+    flat = valid.reshape(n, 3, -1)
+    for i in range(n):
+        held = flat[i, 0, units[i]]
+        assert held.sum() == min(flat[i, 0].sum(), UNITS_PER_SCAN)
+        np.testing.assert_array_equal(tvalid[i], flat[i][:, units[i]])
+    test_valid = np.isfinite(data.depth_m[data.test_idx]).reshape(-1)
+    np.testing.assert_array_equal(test_units, np.flatnonzero(test_valid))
+    assert len(test) == test_valid.sum()
+    assert card["units_per_scan"] == UNITS_PER_SCAN and card["health"]["verdict"] != "collapsed"
+    assert card["encoder"]["width"] == 8  # the dense recipe on the card
+
+
+@pytest.mark.parametrize("strategy", ["duis", "random", "badge", "dropquery", "typiclust"])
+def test_dense_runs_keep_the_strategy_contract(street, strategy):
+    """Segmentation runs in the embedding framework: mIoU records, distinct unlabeled
+    picks, seeded, and the same whatever the pixel classes of scans never labeled."""
+    from spl_al.experiment.dense_embedding import load_dense
+    from spl_al.experiment.embedding_steps import _run
+    from spl_al.experiment.plan import MethodSpec
+
+    _, data, out, _ = street
+    facts = load_dense(out["embeddings"], data, n_total=len(data.train_idx), encoder=(0, "healthy"))
+    params = {"n_cand": 8} if strategy == "duis" else {}
+    spec = MethodSpec(name=strategy, strategy=strategy, params=params, use_variants=True)
+    al = {"initial": 4, "batch": 3}
+
+    def sets(f):
+        records = _run(f, spec, which=("street", 1), al=al, rounds=3, probe={}, n_variants=2)
+        assert all(r["metric"] == "miou" and 0 <= r["value"] <= 1 for r in records)
+        return [r["pool_indices"] for r in records]
+
+    first = sets(facts)
+    never = np.setdiff1d(np.arange(len(facts.train)), first[-1])
+    other = facts.unit_labels.copy()
+    other[never] = (other[never] + 1) % len(facts.classes)
+    assert sets(replace(facts, unit_labels=other)) == first
+    assert sets(facts) == first
+    for before, after in itertools.pairwise(first):
+        assert len(set(after) - set(before)) == 3 and set(before) <= set(after)
+
+
+def test_a_dense_embeddings_file_is_refused_where_a_frame_embedding_is_read(street):
+    """A supervised method selecting on the embedding (features: embedding) reads frame
+    embeddings; a dense encoder's file is refused in one sentence."""
+    from spl_al.experiment.encoders import load_embeddings
+
+    _, data, out, _ = street
+    with pytest.raises(ValueError, match="dense encoder's per-pixel features"):
+        load_embeddings(out["embeddings"], data)
+
+
+def test_a_probe_started_from_the_last_round_finds_the_same_classifier():
+    """A round's fit starts from the previous round's probe: the same predictions as a
+    fit from zero, on more labeled pixels."""
+    rng = np.random.default_rng(0)
+    x = rng.normal(size=(6000, 5)) * [1, 2, 3, 1, 1] + [0, 5, 0, 0, 1]
+    y = (x[:, 0] > 0).astype(int) + (x[:, 2] > 1) + (x[:, 3] > 1)
+    first = DenseProbe(4).fit(x[:2000], y[:2000], rng)
+    cold = DenseProbe(4).fit(x, y, np.random.default_rng(1))
+    warm = DenseProbe(4).fit(x, y, np.random.default_rng(1), start=first)
+    agree = (cold.predict(x) == warm.predict(x)).mean()
+    assert agree > 0.99
+    np.testing.assert_allclose(warm.predict_proba(x[:50]).sum(1), 1, rtol=1e-5)

@@ -458,7 +458,20 @@ def test_the_readme_answer_is_one_table_of_both_frameworks(tmp_path, capsys):
     assert "**supported**: +5.6 [+3.4, +7.8] (vs Random only) |" in row
     assert "training on the variants help" in text and "| - |" in text
     assert "low-budget" not in text  # a question no run answers has no row
+    # the street scans' embedding framework from config/street.yaml's own folder
+    street = tmp_path / "results-street"
+    _fake_claims(
+        street / "street_seg" / "embedding" / "tables",
+        "encoder",
+        12,
+        [("duis_best_aubc", "inconclusive", "duis - coreset", -0.3, -1.0, 0.4, 5)],
+    )
+    more = ["--also-embedding", str(street)]
+    assert answer.main([str(emb), str(sup), *more, "--readme", str(readme)]) == 0
+    both = readme.read_text()
+    assert "| embedding: real_cls (stand-in), 12 encoders | embedding: street_seg, 12" in both
+    assert "**inconclusive**: −0.3 [−1.0, +0.4] vs Coreset" in both
     # nothing to read: one sentence, the README as it was
     assert answer.main([str(tmp_path / "a"), str(tmp_path / "b"), "--readme", str(readme)]) == 1
-    assert "holds claims of real_cls or synth_cls" in capsys.readouterr().err
-    assert readme.read_text() == text
+    assert "holds claims of real_cls or synth_cls or street_seg" in capsys.readouterr().err
+    assert readme.read_text() == both

@@ -142,7 +142,7 @@ def _labeled_sets(facts, strategy):
         params["n_cand"] = 12
     spec = MethodSpec(name=strategy, strategy=strategy, params=params, use_variants=True)
     al = {"initial": 10, "batch": 5}
-    records = _run(facts, spec, which=("toy", 1), al=al, rounds=4, c=1.0, n_variants=2)
+    records = _run(facts, spec, which=("toy", 1), al=al, rounds=4, probe={"c": 1.0}, n_variants=2)
     return [r["pool_indices"] for r in records]
 
 
@@ -385,13 +385,13 @@ def test_each_round_records_what_the_strategy_decided():
     facts = _facts(np.random.default_rng(1), np.random.default_rng(0).integers(0, 4, 60))
     al = {"initial": 10, "batch": 5}
     spec = MethodSpec(name="probcover", strategy="probcover", params={"n_classes": 4})
-    records = _run(facts, spec, which=("toy", 1), al=al, rounds=4, c=1.0, n_variants=2)
+    records = _run(facts, spec, which=("toy", 1), al=al, rounds=4, probe={"c": 1.0}, n_variants=2)
     decided = [r["query_decision"] for r in records[:-1]]
     assert len(decided) == 3 and "query_decision" not in records[-1]  # no query after
     assert len({d["delta"] for d in decided}) == 1 and all(d["purity"] >= 0.95 for d in decided)
     assert all(d["coverage_before"] <= d["coverage_after"] for d in decided)
     spec = MethodSpec(name="typiclust", strategy="typiclust")
-    records = _run(facts, spec, which=("toy", 1), al=al, rounds=2, c=1.0, n_variants=2)
+    records = _run(facts, spec, which=("toy", 1), al=al, rounds=2, probe={"c": 1.0}, n_variants=2)
     assert records[0]["query_decision"]["clusters"] == 15  # 10 labeled + a batch of 5
 
 

@@ -654,6 +654,29 @@ def test_embedding_framework_runs_on_the_same_round0_sets(ci_results):
     np.testing.assert_array_equal(scores["features"], train[scores["unlabeled_idx"], 0])
 
 
+@pytest.mark.parametrize(("dataset", "first_encoder"), [("street_seg", 0), ("street_pc", 3)])
+def test_segmentation_runs_in_the_embedding_framework_over_encoders(
+    ci_results, dataset, first_encoder
+):
+    """config/ci.yaml's street scans in the embedding framework: dense encoders (one
+    per run seed), mIoU records of the per-pixel probe, every table kind and the claims
+    with the encoder as the unit."""
+    root = ci_results / dataset / "embedding"
+    card = json.loads((root / "encoders" / f"seed{first_encoder}" / "card.json").read_text())
+    assert card["encoder"]["depth"] == 2 and card["units_per_scan"] > 0  # the dense recipe
+    runs = json.loads((root / "runs" / "dropquery.json").read_text())
+    assert {r["metric"] for r in runs} == {"miou"}
+    assert {(r["seed"], r["encoder"]) for r in runs} == {
+        (s, first_encoder + s - 1) for s in (1, 2, 3)
+    }
+    for name in ("budget", "levels", "ablation", "sensitivity"):
+        caption = (root / "tables" / f"{name}.md").read_text().splitlines()[0]
+        assert "embedding framework" in caption and "3 encoders" in caption
+    claims = pd.read_csv(root / "tables" / "claims.csv")
+    assert set(claims["framework"]) == {"embedding"} and set(claims["unit"]) == {"encoder"}
+    assert "dense encoder" in (root / "tables" / "claims.md").read_text()
+
+
 def test_a_cold_start_round_0_is_typiclust_on_the_seed_encoder(ci_results):
     """config/ci.yaml's supervised cold-start arm: DUIS from a TypiClust first batch
     chosen on run seed 1's encoder (no label), against DUIS from the random one."""

@@ -8,12 +8,19 @@ networks weigh them (``balance`` of the training recipe: rare classes, poles and
 pedestrians at ~1% of the pixels, count as much as the road in mIoU). A point cloud's
 points are its scan's valid pixels, so the same classifier is the per-point one.
 
+The probe reads the encoder's features beside ``local_depth_features``, nine
+per-pixel depth statistics (range, row, local contrasts, gradients, support): alone,
+the encoder's features segment a little worse than these nine, and together they add
+6-9 mIoU points to them (docs/benchmarks.md#segmentation-a-dense-encoder).
+
 ``dense_probe_inputs`` gives every strategy what it selects from, as
 ``linear_probe.probe_inputs`` does for classification: DUIS's uncertainty and
-inconsistency per pixel averaged over a scan's valid pixels (the paper's units),
-its diversity on the dense features pooled over the scan.
+inconsistency per unit (pixel or point) averaged over a scan's valid units (the
+paper's units), its diversity on the dense features pooled over the scan, DropQuery's
+dropout passes through a head on those pooled features.
 
-Float64 numpy and scikit-learn: no precision setting reaches it.
+Fitted in float64 by scikit-learn, applied in float32 (the standardisation folded into
+the weights): no precision setting reaches it.
 """
 
 from __future__ import annotations
@@ -31,6 +38,31 @@ MAX_FIT_PIXELS = 60_000
 """Pixels a fit reads at most (a uniform draw of the labeled ones): 6 labeled scans
 already hold ~12,000; the fit stays seconds at 36."""
 TOL = 1e-3
+
+
+def _box_mean(a: np.ndarray, k: int) -> np.ndarray:
+    """Mean over a k x k window (edge-padded) of each (n, H, W) image."""
+    from scipy.ndimage import uniform_filter
+
+    return uniform_filter(a, size=(1, k, k), mode="nearest")
+
+
+def local_depth_features(depth_m, valid) -> np.ndarray:
+    """(n, H, W, 9) local depth features of every pixel of (n, H, W) scans: range / 50 m,
+    row position, range minus its 3x3 and 7x7 means, the 3x3 standard deviation, the
+    row and column gradients, the 3x3 share of valid pixels and log(1 + range). Voids
+    are filled with the 7x7 mean of their valid neighbours (0 without any) first."""
+    d = np.where(valid, np.nan_to_num(depth_m, nan=0.0), 0.0).astype(np.float64)
+    v = valid.astype(np.float64)
+    h = d.shape[1]
+    fill7 = _box_mean(d, 7) / np.maximum(_box_mean(v, 7), 1e-6)
+    d = np.where(valid, d, fill7)
+    m3, m7 = _box_mean(d, 3), _box_mean(d, 7)
+    sd3 = np.sqrt(np.maximum(_box_mean(d * d, 3) - m3 * m3, 0.0))
+    gy, gx = np.gradient(d, axis=(1, 2))
+    row = np.broadcast_to(np.linspace(0, 1, h)[None, :, None], d.shape)
+    feats = [d / 50.0, row, d - m3, d - m7, sd3, gy, gx, _box_mean(v, 3), np.log1p(d)]
+    return np.stack([np.clip(f, -50, 50) for f in feats], axis=-1)
 
 
 def class_weights(y: np.ndarray, n_classes: int, balance: float) -> np.ndarray:
@@ -67,22 +99,26 @@ class DenseProbe:
         self._model = None
         self._classes = None
         self._mean = self._scale = None
+        self._weight = self._bias = None
 
-    def fit(self, x, y, rng: np.random.Generator) -> DenseProbe:
+    def fit(self, x, y, rng: np.random.Generator, *, start: DenseProbe | None = None) -> DenseProbe:
         """Fit on pixel features ``x`` (n, d) with classes ``y`` (n,) in 0..C-1; ``rng``
-        draws the pixels read when there are more than ``max_pixels``."""
+        draws the pixels read when there are more than ``max_pixels``. ``start``: a
+        probe fitted before on the same features (a run's previous round), whose
+        function the solver starts from when it saw the same classes (fewer iterations
+        to the same optimum, within ``tol``)."""
         from sklearn.exceptions import ConvergenceWarning
         from sklearn.linear_model import LogisticRegression
 
-        x = np.asarray(x, dtype=np.float64)
         y = np.asarray(y).astype(np.int64)
-        if x.ndim != 2 or y.shape != (len(x),):
-            raise ValueError(f"x must be (n, d) and y (n,), got {x.shape} and {y.shape}.")
+        if np.ndim(x) != 2 or y.shape != (len(x),):
+            raise ValueError(f"x must be (n, d) and y (n,), got {np.shape(x)} and {y.shape}.")
         if len(y) == 0:
             raise ValueError("the dense probe needs at least one labeled pixel, got none.")
         if len(y) > self.max_pixels:
             pick = np.sort(rng.choice(len(y), self.max_pixels, replace=False))
             x, y = x[pick], y[pick]
+        x = np.asarray(x, dtype=np.float64)
         self._mean = x.mean(axis=0)
         self._scale = x.std(axis=0) + 1e-6
         self._classes = np.unique(y)
@@ -90,29 +126,66 @@ class DenseProbe:
             self._model = None
             return self
         weight = class_weights(y, self.n_classes, self.balance)[y]
-        self._model = LogisticRegression(C=self.c, max_iter=500, tol=self.tol)
+        model = LogisticRegression(C=self.c, max_iter=500, tol=self.tol)
+        if (
+            start is not None
+            and start._model is not None
+            and len(self._classes) > 2
+            and np.array_equal(start._classes, self._classes)
+        ):
+            # the previous function in this fit's standardisation: x @ W.T + b
+            # = ((x - m) / s) @ (W * s).T + (b + W @ m)
+            model.set_params(warm_start=True)
+            model.coef_ = start._weight.astype(np.float64) * self._scale
+            model.intercept_ = start._bias + start._weight.astype(np.float64) @ self._mean
         with warnings.catch_warnings():
             warnings.simplefilter("ignore", ConvergenceWarning)
-            self._model.fit((x - self._mean) / self._scale, y, sample_weight=weight)
+            model.fit((x - self._mean) / self._scale, y, sample_weight=weight)
+        # the standardisation folded into float32 weights:
+        # ((x - m) / s) @ W.T + b = x @ (W / s).T + (b - (W / s) @ m)
+        w = model.coef_ / self._scale
+        if len(self._classes) == 2:  # scikit-learn's binary form: one logit, the second class's
+            w = np.concatenate([np.zeros_like(w), w])
+            b = np.array([0.0, model.intercept_[0]])
+        else:
+            b = model.intercept_
+        self._model = model
+        self._weight = w.astype(np.float32)
+        self._bias = (b - w @ self._mean).astype(np.float32)
         return self
 
+    def logits(self, x) -> np.ndarray:
+        """(n, k) float32 logits of the k classes seen in the fit (in class order) for
+        pixel features ``x`` (n, d)."""
+        return np.asarray(x, dtype=np.float32) @ self._weight.T + self._bias
+
+    def predict(self, x) -> np.ndarray:
+        """(n,) the most probable class of each of pixel features ``x`` (n, d)."""
+        if self._model is None:
+            return np.full(len(x), self._classes[0], dtype=np.int64)
+        return self._classes[self.logits(x).argmax(axis=1)]
+
     def predict_proba(self, x) -> np.ndarray:
-        """(n, C) class probabilities of pixel features ``x`` (n, d)."""
-        x = np.asarray(x, dtype=np.float64)
-        out = np.zeros((len(x), self.n_classes))
+        """(n, C) float32 class probabilities of pixel features ``x`` (n, d)."""
+        out = np.zeros((len(x), self.n_classes), dtype=np.float32)
         if self._model is None:
             out[:, self._classes[0]] = 1.0
             return out
-        out[:, self._model.classes_] = self._model.predict_proba((x - self._mean) / self._scale)
+        z = self.logits(x)
+        z -= z.max(axis=1, keepdims=True)
+        np.exp(z, out=z)
+        z /= z.sum(axis=1, keepdims=True)
+        out[:, self._classes] = z
         return out
 
 
 def pooled_features(features: np.ndarray, valid: np.ndarray) -> np.ndarray:
-    """Scan-level features: the mean of (n, H, W, d) dense features over the valid
-    pixels of (n, H, W) ``valid`` (all pixels of a scan without any): (n, d)."""
-    m = valid.reshape(len(valid), -1).astype(np.float64)
+    """Scan-level features: the mean of (n, U, d) dense features (U units: pixels,
+    points, or a sample of them) over the valid units of (n, U) ``valid`` (all units of
+    a scan without any): (n, d) float32. (n, H, W, d) and (n, H, W) serve as well."""
+    m = np.asarray(valid).reshape(len(valid), -1).astype(np.float32)
     m[m.sum(axis=1) == 0] = 1.0
-    f = features.reshape(len(features), -1, features.shape[-1]).astype(np.float64)
+    f = np.asarray(features, dtype=np.float32).reshape(len(features), -1, features.shape[-1])
     return np.einsum("nud,nu->nd", f, m) / m.sum(axis=1)[:, None]
 
 
@@ -125,49 +198,53 @@ def dense_probe_inputs(
     unlabeled_idx,
     labeled_idx,
     n_images: int,
-    chunk: int = 16,
+    head: tuple | None = None,
+    chunk: int = 64,
 ) -> StrategyInputs:
     """What a strategy with ``needs`` selects from, in the dense embedding framework.
 
-    The probe's per-pixel probabilities are the units DUIS's margin and inconsistency
-    average over a scan's valid pixels (each image's own valid pixels: a variant's
-    voids are not scored); features are the dense features pooled over the observed
-    scan's valid pixels, for every image of a group alike (the k-means of DUIS and the
-    diversity baselines, Coreset's distances); BADGE reads the per-pixel features.
+    The probe's per-unit probabilities are what DUIS's margin and inconsistency
+    average over a scan's valid units (each image's own valid units: a variant's voids
+    are not scored); features are the dense features pooled over the observed scan's
+    valid units, for every image of a group alike (the k-means of DUIS and the
+    diversity baselines, Coreset's distances, DropQuery's passes); BADGE reads the
+    per-unit features.
 
     Args:
         probe: the round's fitted ``DenseProbe``.
-        features: (N, G, H, W, d) dense features of every training scan's images
-            (observed first, then its variants); a memory map serves.
-        valid: (N, G, H, W) bool, the pixels each image holds.
-        needs: names from ``spl_al.strategies.inputs.NEEDS`` ("head" is refused: it
-            reads a classifier's last layer).
+        features: (N, G, U, d) dense features of U units (pixels, points, or a fixed
+            sample of them) of every training scan's images (observed first, then its
+            variants), unit u the same place in every image of a group.
+        valid: (N, G, U) bool, the units each image holds.
+        needs: names from ``spl_al.strategies.inputs.NEEDS``.
         unlabeled_idx, labeled_idx: disjoint training-set indices.
         n_images: images per group the group needs are computed on: 1 + the method's M.
-        chunk: scans scored at a time (memory: chunk x G x H x W x (d + C)).
+        head: (W, b, p) the "head" need reads (``linear_probe.DropoutHead.head`` fitted
+            on the labeled units' features); needed with it.
+        chunk: scans scored at a time (memory: chunk x G x U x (d + C)).
 
     Returns:
         ``StrategyInputs`` with exactly the needed parts.
     """
     needs = check_needs(needs)
-    if "head" in needs:
-        raise ValueError("a dense probe has no dropout head: DropQuery is for classification.")
+    if "head" in needs and head is None:
+        raise ValueError("dense_probe_inputs: the 'head' need takes a head (DropoutHead.head()).")
     unl = np.asarray(unlabeled_idx, dtype=np.int64)
     lab = np.asarray(labeled_idx, dtype=np.int64)
     g = int(n_images) if needs & GROUP_NEEDS else 1
-    scored = needs - {"labeled_features"}
+    scored = needs - {"labeled_features", "head"}
     parts: dict[str, list[np.ndarray]] = {}
     for s in range(0, len(unl) if scored else 0, max(1, int(chunk))):
         idx = unl[s : s + chunk]
-        f = np.asarray(features[idx, :g], dtype=np.float32)  # (b, g, H, W, d)
+        f = np.asarray(features[idx, :g], dtype=np.float32)  # (b, g, U, d)
         v = np.asarray(valid[idx, :g], dtype=bool)
-        b, _, h, w, d = f.shape
-        probs = probe.predict_proba(f.reshape(-1, d)).reshape(b, g, h * w, -1)
-        obs = np.repeat(v[:, :1], g, axis=1).reshape(b * g, h, w)
-        pooled = pooled_features(f.reshape(b * g, h, w, d), obs).reshape(b, g, d)
-        pix = f.reshape(b, g, h * w, d) if "grad_embedding" in needs else None
+        b, _, u, d = f.shape
+        probs = probe.predict_proba(f.reshape(-1, d)).reshape(b, g, u, -1)
+        obs = np.repeat(v[:, :1], g, axis=1).reshape(b * g, u)
+        pooled = pooled_features(f.reshape(b * g, u, d), obs).reshape(b, g, d)
+        pix = f if "grad_embedding" in needs else None
         for name, value in scores_from_outputs(
-            scored, "segmentation", probs, pooled, pix_feats=pix, image_valid=v.reshape(b, g, -1)
+            scored, "segmentation", probs, pooled, pix_feats=pix, image_valid=v
         ):
             parts.setdefault(name, []).append(value)
     arrays = {name: np.concatenate(chunks) for name, chunks in parts.items()}
@@ -179,4 +256,6 @@ def dense_probe_inputs(
         k: v.astype(np.float32) if np.ndim(v) == 2 else np.asarray(v, dtype=np.float64)
         for k, v in arrays.items()
     }
+    if "head" in needs:
+        arrays["head_weight"], arrays["head_bias"], arrays["head_dropout"] = head
     return StrategyInputs(unlabeled_idx=unl, labeled_idx=lab, **arrays)

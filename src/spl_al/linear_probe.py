@@ -191,6 +191,21 @@ class DropoutHead:
         return w, bias - w @ mu, self.dropout
 
 
+HEAD_EXAMPLES = 5000
+"""Examples ``dropout_head`` fits on at most: a segmentation round labels ~10,000 pixels,
+whose full-batch fit would cost seconds; classification's rounds fit fewer."""
+
+
+def dropout_head(x, y, n_classes: int, rng: np.random.Generator) -> DropoutHead:
+    """DropQuery's head fitted on a round's examples ``x`` (n, d), ``y`` (n,): at most
+    ``HEAD_EXAMPLES`` of them, a draw of ``rng`` (which then draws the head's weights
+    and masks)."""
+    if len(y) > HEAD_EXAMPLES:
+        pick = np.sort(rng.choice(len(y), HEAD_EXAMPLES, replace=False))
+        x, y = x[pick], y[pick]
+    return DropoutHead(n_classes).fit(x, y, rng)
+
+
 def probe_inputs(
     probe: LinearProbe,
     embeddings: np.ndarray,

@@ -45,6 +45,8 @@ _GRID_STREAM = 11
 """np.random.SeedSequence([seed, stream, msppp x 1000, sbr x 1000]) of a grid cell."""
 _ACQUIRE_STREAM = 12
 """np.random.SeedSequence([seed, stream]) of ``spl_al.query``'s strategy."""
+_UNITS_STREAM = 13
+"""np.random.SeedSequence([encoder seed, stream]) of a dense encoder's sampled units."""
 
 
 def _as_seed(seed) -> int:
@@ -86,6 +88,13 @@ def acquire_rng(seed: int) -> np.random.Generator:
     """The generator of a strategy's random choices in ``spl_al.query`` under ``seed``
     (its frames' variants draw from ``sample_rng(seed, STREAM_VARIANT, frame)``)."""
     return np.random.default_rng(np.random.SeedSequence([_as_seed(seed), _ACQUIRE_STREAM]))
+
+
+def units_rng(encoder_seed: int) -> np.random.Generator:
+    """The generator of the units (pixels) a dense encoder's embeddings keep of each
+    training scan (``spl_al.experiment.dense_embedding``): the encoder's own seed, so its
+    runs read the same units whatever their run seed."""
+    return np.random.default_rng(np.random.SeedSequence([_as_seed(encoder_seed), _UNITS_STREAM]))
 
 
 def sample_rng(seed: int, stream: int, uid: int = 0) -> np.random.Generator:

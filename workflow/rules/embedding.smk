@@ -243,7 +243,8 @@ use rule stats as embedding_stats with:
                 config, config["datasets"][w.dataset]["variants"]["n"]
             ),
             claim_notes=lambda w: encoder_claim_notes(
-                encoder_recipe(config["datasets"][w.dataset]).get("objective", "siv")
+                encoder_recipe(config["datasets"][w.dataset]).get("objective", "siv"),
+                config["datasets"][w.dataset]["task"],
             ),
         ),
         files=job_files,

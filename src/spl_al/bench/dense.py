@@ -15,7 +15,10 @@ per budget and labeled set reports validation mIoU of
 - the per-pixel linear model on local depth features alone
   (``learnability.linear_reference``);
 - with ``--network``, the configured network (U-Net or PointNet++) trained as a round
-  trains it (observed scans, fp32).
+  trains it (observed scans, fp32);
+- with ``--units U``, the probe beside the local features as the pipeline's rounds fit
+  it: U sampled pixels of each labeled scan (``dense_embedding.sample_units``, the
+  encoder's ``units_rng``), at most ``dense_embedding.FIT_UNITS`` a fit, float16 features.
 
 Each encoder's health: final loss / chance, and the effective rank of 4,000 valid
 pixels' features (``contrastive.effective_rank``).
@@ -32,18 +35,24 @@ from pathlib import Path
 import numpy as np
 
 from spl_al.bench.encoders import parse_recipe
-from spl_al.bench.learnability import learner_score, linear_reference, pixel_features, tuning_split
+from spl_al.bench.learnability import learner_score, linear_reference, tuning_split
 from spl_al.bench.timing import markdown_table
 from spl_al.data import Dataset
-from spl_al.dense_probe import DenseProbe
+from spl_al.dense_probe import DenseProbe, local_depth_features
+from spl_al.experiment.dense_embedding import FIT_UNITS, sample_units
 from spl_al.pool import initial_labeled_set
+from spl_al.seeding import units_rng
 
 IGNORE = 255
 
 
-def probe_miou(dataset, features, labeled, held_out, *, seed: int, c: float, balance: float):
+def probe_miou(
+    dataset, features, labeled, held_out, *, seed: int, c: float, balance: float, units=None
+):
     """Validation mIoU of the dense probe fitted on the ``labeled`` scans' valid pixels;
-    ``features``: (N, H, W, d) of every scan."""
+    ``features``: (N, H, W, d) of every scan. ``units``: (N, U) flat pixel indices of
+    every scan: the probe reads those of the labeled scans alone, at most
+    ``dense_embedding.FIT_UNITS``, as the pipeline's rounds fit it (float16 features)."""
     # torch and threadpoolctl on demand (importing this module does not load them)
     from threadpoolctl import threadpool_limits
 
@@ -51,8 +60,17 @@ def probe_miou(dataset, features, labeled, held_out, *, seed: int, c: float, bal
 
     keep = dataset.valid[labeled] & (dataset.labels[labeled] != IGNORE)
     x, y = features[labeled][keep], dataset.labels[labeled][keep]
+    cap = {}
+    if units is not None:
+        at = units[labeled].astype(np.int64)
+        n, d = len(labeled), features.shape[-1]
+        x = np.take_along_axis(features[labeled].reshape(n, -1, d), at[..., None], axis=1)
+        x = x.astype(np.float16)
+        y = np.take_along_axis(dataset.labels[labeled].reshape(n, -1), at, axis=1)
+        held = np.take_along_axis(keep.reshape(n, -1), at, axis=1)
+        x, y, cap = x[held], y[held], {"max_pixels": FIT_UNITS}
     with threadpool_limits(limits=1):  # as a pipeline job fits it
-        probe = DenseProbe(len(dataset.classes), c, balance=balance)
+        probe = DenseProbe(len(dataset.classes), c, balance=balance, **cap)
         probe.fit(x, y, np.random.default_rng(seed))
         f_val = features[held_out]
         pred = probe.predict_proba(f_val.reshape(-1, f_val.shape[-1])).argmax(axis=1)
@@ -110,10 +128,16 @@ def recipe_rows(data, split, sets: dict, *, local_px, recipe: dict, args, name: 
         feats, record = train_one(data, fit_idx, recipe, k, levels=args.levels)
         both = np.concatenate([feats, local_px], axis=-1)
         row = {"seed": k, "record": record, "dense": {}, "dense_local": {}}
+        probes = {"dense": (feats, None), "dense_local": (both, None)}
+        if args.units:  # the pipeline's sample of each scan's valid pixels
+            units = sample_units(data.valid, args.units, units_rng(k))
+            probes["dense_units"] = (both, units)
         for n, labeled_sets in sets.items():
-            for key, x in (("dense", feats), ("dense_local", both)):
-                row[key][n] = [
-                    probe_miou(data, x, lab, held_out, seed=s, c=args.c, balance=args.balance)
+            for key, (x, at) in probes.items():
+                row.setdefault(key, {})[n] = [
+                    probe_miou(
+                        data, x, lab, held_out, seed=s, c=args.c, balance=args.balance, units=at
+                    )
                     for s, lab in enumerate(labeled_sets, 1)
                 ]
         health = record["health"]
@@ -146,6 +170,12 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--balance", type=float, default=0.5, help="class weighting power")
     parser.add_argument("--network", action="store_true", help="train the configured network")
     parser.add_argument("--levels", type=int, default=1, help="decoder levels the probe reads")
+    parser.add_argument(
+        "--units",
+        type=int,
+        default=0,
+        help="also probe (+ local) as the pipeline fits it: this many sampled pixels a scan",
+    )
     parser.add_argument("--out", type=Path, help="write every score here (JSON)")
     args = parser.parse_args(argv)
     entry = yaml.safe_load(args.config.read_text())["datasets"][args.only]
@@ -160,7 +190,9 @@ def main(argv: list[str] | None = None) -> int:
     scores = {"budgets": list(sets), "recipes": {}}
     scores |= references(data, entry, sets, held_out, network=args.network)
     recipes = [parse_recipe(r) for r in (args.recipe or ["default:"])] if args.encoders else []
-    local_px = pixel_features(data.depth_m, data.valid).astype(np.float32) if recipes else None
+    local_px = (
+        local_depth_features(data.depth_m, data.valid).astype(np.float32) if recipes else None
+    )
     for name, recipe in recipes:
         scores["recipes"][name] = recipe_rows(
             data, (fit_idx, held_out), sets, local_px=local_px, recipe=recipe, args=args, name=name
@@ -188,8 +220,10 @@ def render(scores: dict, name: str, n_pool: int) -> str:
     header = ["labeled scans", "local features"]
     if scores["network"]:
         header.append("network")
-    for recipe in scores["recipes"]:
+    for recipe, rows in scores["recipes"].items():
         header += [f"{recipe}", f"{recipe} + local"]
+        if rows and "dense_units" in rows[0]:
+            header.append(f"{recipe} + local, sampled pixels")
     body = []
     for n in scores["budgets"]:
         row = [f"{n} ({100 * n / n_pool:.1f}%)", _cell(scores["local"][n])]
@@ -200,6 +234,8 @@ def render(scores: dict, name: str, n_pool: int) -> str:
                 _cell(_per_encoder(rows, "dense", n)),
                 _cell(_per_encoder(rows, "dense_local", n)),
             ]
+            if rows and "dense_units" in rows[0]:
+                row.append(_cell(_per_encoder(rows, "dense_units", n)))
         body.append(row)
     text = f"**{name}: validation mIoU (%)**\n\n" + markdown_table(header, body)
     for recipe, rows in scores["recipes"].items():

@@ -37,9 +37,13 @@ from spl_al.config import dataset_precision
 from spl_al.data import Dataset
 from spl_al.data.sources import is_synthesised
 from spl_al.data.variants import generate_variants
+from spl_al.experiment import dense_embedding
 from spl_al.experiment.data_steps import make_dataset
+from spl_al.experiment.encoders import encoder_recipe, encoder_seeds
+from spl_al.experiment.plan import dataset_method, dataset_runs, labeled_at
 from spl_al.frameworks import EMBEDDING
-from spl_al.linear_probe import LinearProbe, probe_inputs
+from spl_al.linear_probe import LinearProbe, dropout_head, probe_inputs
+from spl_al.pool import Pool
 from spl_al.strategies import GROUP_NEEDS, get
 from spl_al.strategies import get as get_strategy
 from spl_al.training import TrainConfig
@@ -253,20 +257,21 @@ def probe_round_seconds(
     labeled = np.arange(n_labeled)
     unlabeled = np.arange(labeled.size, n_pool)
     g = 1 + spec.variants_seen(m)
-    params = dict(spec.params)
-    if "n_cand" in params:  # the pool here may be smaller than the run's: keep the rule
-        params["n_cand"] = max(2, min(int(params["n_cand"]), unlabeled.size // 2))
-    strategy = get(spec.strategy, **params)
+    strategy = get(spec.strategy, **_fitting_params(spec, unlabeled.size))
     with threadpool_limits(limits=1):
         for i in range(1 + repeats):
             if i == 1:
                 started = time.perf_counter()
             x_fit = emb[labeled, :g].reshape(-1, emb.shape[-1])
-            probe = LinearProbe(11).fit(x_fit, np.repeat(labels[labeled], g))
+            y_fit = np.repeat(labels[labeled], g)
+            probe = LinearProbe(11).fit(x_fit, y_fit)
             probe.predict_proba(emb[:n_test, 0])
+            head = None
+            if "head" in strategy.needs:  # DropQuery's own head, as a run fits it
+                head = dropout_head(x_fit, y_fit, 11, np.random.default_rng(i)).head()
             inputs = probe_inputs(
                 probe, emb, strategy.needs, unlabeled_idx=unlabeled, labeled_idx=labeled,
-                n_images=g,
+                n_images=g, head=head,
             )  # fmt: skip
             strategy.select(inputs, 20, np.random.default_rng(i))
     return (time.perf_counter() - started) / repeats
@@ -288,66 +293,143 @@ def first_batch_seconds(start: str, *, n_pool: int, dim: int, size: int, repeats
     return (time.perf_counter() - started) / repeats
 
 
-def embedding_seconds(config: dict, dataset: str, *, steps: int = 10) -> dict:
-    """Core seconds of a dataset's embedding framework (none without one) and its job
-    count.
+# Share of a street scan's pixels that are valid and labeled (the test pixels a dense
+# probe measures): 73% of street_seg's.
+DENSE_TEST_SHARE = 0.73
 
-    - Each encoder job: the recipe's steps at the per-step time of ``steps`` timed steps
-      (from the difference of a 1-step and a (1 + ``steps``)-step ``train_encoder`` on
-      random frames of the training pool's size, so that the views index a pool as
-      large as the run's), its fixed cost (the 1-step run less a step: the pool's
-      network input, the model's start), loading the dataset and embedding every image.
-    - The probe runs: each planned method's rounds at its own timed round
-      (``probe_round_seconds``: the low-budget strategies cost 2-3x Random's), each
-      cold-start arm's first batch per run seed (``first_batch_seconds``), and the
-      paired statistics over every seed.
-    """
-    # torch and pandas on demand (importing this module does not load them)
+
+def encoder_seconds(entry: dict, *, steps: int) -> float:
+    """Core seconds of one encoder job of the dataset's recipe: its steps at the
+    per-step time of ``steps`` timed steps (from the difference of a 1-step and a
+    (1 + ``steps``)-step training on random frames of the training pool's size, so that
+    the views index a pool as large as the run's), its fixed cost (the 1-step run less
+    a step), loading the dataset, and embedding every image (a dense encoder: its
+    features and the local depth features of every pixel)."""
+    # torch on demand (importing this module does not load it)
     from dataclasses import replace
 
     import numpy as np
     import torch
 
-    from spl_al.experiment.encoders import encoder_recipe, encoder_seeds
-    from spl_al.experiment.plan import dataset_method, dataset_runs, labeled_at
-    from spl_al.training.contrastive import Encoder, EncoderConfig, train_encoder
+    from spl_al.dense_probe import local_depth_features
+    from spl_al.training import contrastive as frames
+    from spl_al.training import dense_contrastive as pixels
 
-    entry = config["datasets"][dataset]
-    embedding = EMBEDDING.settings(entry)
-    if not embedding:
-        return {"encoder_s": 0.0, "probe_s": 0.0, "jobs": 0}
-    cfg = EncoderConfig.from_dict(encoder_recipe(entry))
-    n_encoders = len(encoder_seeds(entry))
+    dense = entry["task"] == "segmentation"
+    if dense:
+        encoder_class, config, train = (
+            pixels.DenseEncoder, pixels.DenseEncoderConfig, pixels.train_dense_encoder
+        )  # fmt: skip
+    else:
+        encoder_class, config, train = frames.Encoder, frames.EncoderConfig, frames.train_encoder
+    cfg = config.from_dict(encoder_recipe(entry))
     n_pool, n_test, _ = split_sizes(entry)
     m = int(entry["variants"]["n"])
     shape = tuple((entry.get("synthesis") or {}).get("image_shape") or (64, 64))
-    rng = np.random.default_rng(0)
-    depth = rng.uniform(5, 50, size=(n_pool, 1 + m, *shape)).astype(np.float32)
+    depth = np.random.default_rng(0).uniform(5, 50, size=(n_pool, 1 + m, *shape))
+    depth = depth.astype(np.float32)
     valid = np.ones(depth.shape, dtype=bool)
     seconds = [
-        train_encoder(depth, valid, cfg=replace(cfg, steps=k), log=os.devnull)[1]["train_seconds"]
+        train(depth, valid, cfg=replace(cfg, steps=k), log=os.devnull)[1]["train_seconds"]
         for k in (1, 1 + steps)
     ]
     step_s = max(seconds[1] - seconds[0], 0.0) / steps
     fixed_s = max(seconds[0] - step_s, 0.0)
-    encoder = Encoder(cfg).eval()
-    x = torch.randn(512, 2, *shape)
+    encoder = encoder_class(cfg).eval()
+    x = torch.randn(64 if dense else 512, 2, *shape)
     with torch.no_grad():
         started = time.perf_counter()
         encoder(x)
+        if dense:
+            local_depth_features(depth[:64, 0], valid[:64, 0])
         image_s = (time.perf_counter() - started) / len(x)
     # the job also reads the dataset: ~75 ns a pixel of every image (the Zen 3 EPYC's:
     # 1.7 s for real_cls's 1,100 x 5 images of 64 x 64)
     load_s = 7.5e-8 * (n_pool + n_test) * (1 + m) * shape[0] * shape[1]
-    per_encoder = fixed_s + cfg.steps * step_s + load_s + (n_pool * (1 + m) + n_test) * image_s
+    return fixed_s + cfg.steps * step_s + load_s + (n_pool * (1 + m) + n_test) * image_s
+
+
+def dense_round_seconds(
+    spec, *, n_pool: int, n_test: int, m: int, dim: int, n_labeled: int, repeats: int = 3
+) -> float:
+    """``probe_round_seconds`` of a segmentation dataset: the dense probe's round
+    (``spl_al.experiment.dense_embedding``) on random features of the pool's units, ``n_test``
+    test pixels, 7 classes."""
+    import numpy as np
+    from threadpoolctl import threadpool_limits
+
+    rng = np.random.default_rng(0)
+    units = dense_embedding.UNITS_PER_SCAN
+    facts = dense_embedding.DenseProbeData(
+        train=rng.normal(size=(n_pool, 1 + int(m), units, dim)).astype(np.float32),
+        train_valid=np.ones((n_pool, 1 + int(m), units), dtype=bool),
+        unit_labels=rng.integers(0, 7, (n_pool, units)),
+        test=rng.normal(size=(n_test, dim)).astype(np.float32),
+        test_labels=rng.integers(0, 7, n_test),
+        test_levels=np.full(n_test, "high"),
+        classes=tuple("abcdefg"),
+        n_total=n_pool,
+        standin=True,
+    )
+    pool = Pool(n_pool, np.arange(n_labeled))
+    g = 1 + spec.variants_seen(int(m))
+    strategy = get(spec.strategy, **_fitting_params(spec, n_pool - n_labeled))
+    with threadpool_limits(limits=1):
+        for i in range(1 + repeats):
+            if i == 1:
+                started = time.perf_counter()
+            fit_rng = np.random.default_rng(i)
+            probe, x, y = dense_embedding.fit_probe(
+                facts, pool.labeled_idx, g, probe={}, rng=fit_rng
+            )
+            dense_embedding.test_miou(facts, probe)
+            head = dropout_head(x, y, 7, fit_rng).head() if "head" in strategy.needs else None
+            inputs = dense_embedding.query_inputs(
+                facts, probe, strategy.needs, pool, n_images=g, head=head
+            )
+            strategy.select(inputs, 6, np.random.default_rng(i))
+    return (time.perf_counter() - started) / repeats
+
+
+def _fitting_params(spec, n_unlabeled: int) -> dict:
+    """The method's parameters with N_cand kept under half the unlabeled pool (the pool
+    here may be smaller than the run's: keep the rule)."""
+    params = dict(spec.params)
+    if "n_cand" in params:
+        params["n_cand"] = max(2, min(int(params["n_cand"]), n_unlabeled // 2))
+    return params
+
+
+def embedding_seconds(config: dict, dataset: str, *, steps: int = 10) -> dict:
+    """Core seconds of a dataset's embedding framework (none without one) and its job
+    count.
+
+    - Each encoder job: ``encoder_seconds``.
+    - The probe runs: each planned method's rounds at its own timed round
+      (``probe_round_seconds``, ``dense_round_seconds`` for segmentation: the
+      low-budget strategies cost 2-3x Random's), each cold-start arm's first batch per
+      run seed (``first_batch_seconds``), and the paired statistics over every seed.
+    """
+    entry = config["datasets"][dataset]
+    if not EMBEDDING.settings(entry):
+        return {"encoder_s": 0.0, "probe_s": 0.0, "jobs": 0}
+    n_encoders = len(encoder_seeds(entry))
+    per_encoder = encoder_seconds(entry, steps=steps)
+    n_pool, n_test, _ = split_sizes(entry)
+    dense = entry["task"] == "segmentation"
     runs = dataset_runs(config, dataset, EMBEDDING)
     per_method: dict[str, int] = {}
     for (method, _seed), rounds in runs.items():
         per_method[method] = per_method.get(method, 0) + int(rounds)
-    sizes = dict(n_pool=n_pool, n_test=n_test, m=m, dim=8 * cfg.width)
-    sizes["n_labeled"] = labeled_at(entry["al"], 1)
+    width = int(encoder_recipe(entry).get("width", 32 if dense else 16))
+    sizes = dict(n_pool=n_pool, n_test=n_test, m=int(entry["variants"]["n"]))
+    sizes.update(dim=width + 9 if dense else 8 * width, n_labeled=labeled_at(entry["al"], 1))
+    if dense:
+        shape = entry["synthesis"]["image_shape"]
+        sizes["n_test"] = int(n_test * shape[0] * shape[1] * DENSE_TEST_SHARE)
+    round_seconds = dense_round_seconds if dense else probe_round_seconds
     probe_s = sum(
-        rounds * probe_round_seconds(dataset_method(config, dataset, method), **sizes)
+        rounds * round_seconds(dataset_method(config, dataset, method), **sizes)
         for method, rounds in per_method.items()
     )
     starts: dict[str, int] = {}  # cold-start arms: a first batch chosen per run seed

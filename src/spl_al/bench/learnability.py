@@ -40,6 +40,7 @@ from spl_al.data.dataset import HEADLINE_METRICS
 from spl_al.data.digits import write_digits_folder
 from spl_al.data.validation import VALIDATION_FRACTION, VALIDATION_SEED, validation_split
 from spl_al.data.variants import make_variants
+from spl_al.dense_probe import local_depth_features
 from spl_al.experiment.data_steps import make_dataset
 from spl_al.pool import initial_labeled_set
 from spl_al.training.compute import Compute
@@ -77,29 +78,6 @@ def _linear_image_features(depth_m, valid) -> np.ndarray:
     return small.reshape(len(x), -1).numpy()
 
 
-def _box_mean(a: np.ndarray, k: int) -> np.ndarray:
-    """Mean over a k x k window (edge-padded) of each (n, H, W) image."""
-    from scipy.ndimage import uniform_filter
-
-    return uniform_filter(a, size=(1, k, k), mode="nearest")
-
-
-def pixel_features(depth_m, valid) -> np.ndarray:
-    """(n, H, W, 9) local depth features of every pixel (voids filled with the 7x7
-    mean of valid neighbours, else 0)."""
-    d = np.where(valid, np.nan_to_num(depth_m, nan=0.0), 0.0).astype(np.float64)
-    v = valid.astype(np.float64)
-    h = d.shape[1]
-    fill7 = _box_mean(d, 7) / np.maximum(_box_mean(v, 7), 1e-6)
-    d = np.where(valid, d, fill7)
-    m3, m7 = _box_mean(d, 3), _box_mean(d, 7)
-    sd3 = np.sqrt(np.maximum(_box_mean(d * d, 3) - m3 * m3, 0.0))
-    gy, gx = np.gradient(d, axis=(1, 2))
-    row = np.broadcast_to(np.linspace(0, 1, h)[None, :, None], d.shape)
-    feats = [d / 50.0, row, d - m3, d - m7, sd3, gy, gx, _box_mean(v, 3), np.log1p(d)]
-    return np.stack([np.clip(f, -50, 50) for f in feats], axis=-1)
-
-
 def linear_reference(dataset, labeled: np.ndarray, held_out: np.ndarray, seed: int) -> float:
     """Accuracy (mIoU) on samples ``held_out`` of the linear reference trained on
     samples ``labeled``."""
@@ -118,7 +96,7 @@ def linear_reference(dataset, labeled: np.ndarray, held_out: np.ndarray, seed: i
     # torch on demand (importing this module does not load it)
     from spl_al.training.metrics import confusion_per_image, segmentation_summary
 
-    f_tr = pixel_features(dataset.depth_m[labeled], dataset.valid[labeled])
+    f_tr = local_depth_features(dataset.depth_m[labeled], dataset.valid[labeled])
     keep = dataset.valid[labeled] & (dataset.labels[labeled] != 255)
     x_tr, y_tr = f_tr[keep], dataset.labels[labeled][keep]
     rng = np.random.default_rng(seed)
@@ -127,7 +105,7 @@ def linear_reference(dataset, labeled: np.ndarray, held_out: np.ndarray, seed: i
         x_tr, y_tr = x_tr[pick], y_tr[pick]
     scaler = StandardScaler().fit(x_tr)
     clf = LogisticRegression(max_iter=500).fit(scaler.transform(x_tr), y_tr)
-    f_val = pixel_features(dataset.depth_m[val], dataset.valid[val])
+    f_val = local_depth_features(dataset.depth_m[val], dataset.valid[val])
     pred = clf.predict(scaler.transform(f_val.reshape(-1, f_val.shape[-1]))).reshape(
         f_val.shape[:3]
     )

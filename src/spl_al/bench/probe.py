@@ -37,12 +37,12 @@ from spl_al.bench.learnability import (
     default_datasets,
     learner_score,
     linear_reference,
-    pixel_features,
     tuning_split,
 )
 from spl_al.bench.timing import markdown_table
 from spl_al.data import Dataset
 from spl_al.data.dataset import HEADLINE_METRICS
+from spl_al.dense_probe import local_depth_features
 from spl_al.experiment.encoders import encoder_recipe, encoder_seeds
 from spl_al.frameworks import EMBEDDING
 from spl_al.linear_probe import LinearProbe
@@ -164,7 +164,7 @@ def dense_embeddings(encoder, depth_m, valid, *, batch_size: int = 64) -> np.nda
 
 def segmentation_probe(dataset, labeled, held_out, *, dense, seed: int) -> float:
     """Validation mIoU of a per-pixel logistic regression on a pixel's local depth
-    features (``learnability.pixel_features``) and the frozen encoder's ``dense``
+    features (``dense_probe.local_depth_features``) and the frozen encoder's ``dense``
     features (n, H, W, c) of every sample, fitted on the ``labeled`` samples' pixels."""
     # torch, scikit-learn and threadpoolctl on demand (importing this module does not load them)
     from sklearn.linear_model import LogisticRegression
@@ -174,7 +174,7 @@ def segmentation_probe(dataset, labeled, held_out, *, dense, seed: int) -> float
     from spl_al.training.metrics import confusion_per_image, segmentation_summary
 
     def features(idx):
-        local = pixel_features(dataset.depth_m[idx], dataset.valid[idx])
+        local = local_depth_features(dataset.depth_m[idx], dataset.valid[idx])
         return np.concatenate([local, dense[idx]], axis=-1)
 
     f_tr = features(labeled)

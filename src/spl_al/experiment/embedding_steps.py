@@ -29,21 +29,26 @@ from spl_al.atomic import atomic_write, read_json, write_json
 from spl_al.cold_start import STRATIFIED, initial_strategy, is_cold_start, round0_set
 from spl_al.data import SCENE_FIELDS, Dataset
 from spl_al.data.dataset import LEVELS
+from spl_al.dense_probe import pooled_features
 from spl_al.deploy.card import file_sha256
+from spl_al.experiment import dense_embedding
+from spl_al.experiment.dense_embedding import DenseProbeData, encode_scans, load_dense
 from spl_al.experiment.encoders import load_embeddings
 from spl_al.experiment.plan import MethodSpec, batch_of
 from spl_al.experiment.step_args import ProbeRuns
 from spl_al.frameworks import EMBEDDING
-from spl_al.linear_probe import DEFAULT_C, DropoutHead, LinearProbe, probe_inputs
+from spl_al.linear_probe import DEFAULT_C, LinearProbe, dropout_head, probe_inputs
 from spl_al.models.configured import save_model
 from spl_al.pool import Pool
 from spl_al.report.records import round_record
 from spl_al.round_query import query_batch
 from spl_al.seeding import TRAIN, round_rng
 from spl_al.strategies import get
+from spl_al.strategies.inputs import StrategyInputs
 from spl_al.training.compute import LOCAL, Compute
 from spl_al.training.contrastive import EncoderConfig, embed, encoder_health
 from spl_al.training.contrastive import train_encoder as fit_encoder
+from spl_al.training.dense_contrastive import DenseEncoderConfig
 
 FRAMEWORK = EMBEDDING.name
 CARD_KEYS = ("dataset", "variants", "image_shape")
@@ -103,24 +108,25 @@ def train_encoder(
 ) -> dict:
     """Train the dataset's encoder on its training split and embed every image.
 
-    ``encoder``: config ``embedding.encoder`` (``EncoderConfig``); ``variants``: the
-    dataset's config ``variants`` (recorded on the card). ``out``: paths ``encoder``
-    (weights), ``card`` (JSON), ``embeddings`` (.npz: ``train`` (n_train, G, d) of
-    every image of each training group, ``test`` (n_test, d) of the test split's
-    observed images, and the split's indices). Returns the card.
+    ``encoder``: config ``embedding.encoder`` (``EncoderConfig`` for classification,
+    ``DenseEncoderConfig`` for segmentation); ``variants``: the dataset's config
+    ``variants`` (recorded on the card). ``out``: paths ``encoder`` (weights), ``card``
+    (JSON), ``embeddings`` (.npz with the split's indices and, for classification,
+    ``train`` (n_train, G, d) of every image of each training group and ``test``
+    (n_test, d) of the test split's observed images; for segmentation
+    ``dense_embedding.encode_scans``'s units). Returns the card.
     """
     compute.apply()
     data = Dataset.load(dataset_path, skip=SCENE_FIELDS)
-    cfg = EncoderConfig.from_dict(encoder)
-    depth, valid = data.groups(data.train_idx)
-    model, record = fit_encoder(depth, valid, cfg=cfg, device=compute.device, log=log)
-    started = time.perf_counter()
-    n, g, h, w = depth.shape
-    train = embed(model, depth.reshape(n * g, h, w), valid.reshape(n * g, h, w)).reshape(n, g, -1)
-    test_depth = data.depth_m[data.test_idx]
-    test = embed(model, test_depth, np.isfinite(test_depth))
-    record["embed_seconds"] = round(time.perf_counter() - started, 3)
-    health = encoder_health(record, train[:, 0])
+    if data.task == "segmentation":
+        cfg = DenseEncoderConfig.from_dict(encoder)
+        model, record, arrays, observed = encode_scans(data, cfg, device=compute.device, log=log)
+    else:
+        cfg = EncoderConfig.from_dict(encoder)
+        model, record, arrays = _embed_frames(data, cfg, compute=compute, log=log)
+        observed = arrays["train"][:, 0]
+    n, g, h, w = (*arrays["train"].shape[:2], *data.depth_m.shape[1:])
+    health = encoder_health(record, observed)
     if health["verdict"] == "collapsed":
         # refused before anything is written: no run reads a collapsed encoder
         raise ValueError(
@@ -138,7 +144,7 @@ def train_encoder(
 
     def write(tmp):
         with open(tmp, "wb") as fh:
-            np.savez(fh, train=train, test=test, train_idx=data.train_idx, test_idx=data.test_idx)
+            np.savez(fh, **arrays, train_idx=data.train_idx, test_idx=data.test_idx)
 
     atomic_write(out["embeddings"], write)
     card = encoder_card(
@@ -150,6 +156,21 @@ def train_encoder(
     )
     write_json(card, out["card"])
     return card
+
+
+def _embed_frames(data, cfg: EncoderConfig, *, compute: Compute, log) -> tuple:
+    """(encoder, record, {"train": (n_train, G, d), "test": (n_test, d)}) of a
+    classification dataset: the encoder trained on the training groups, every image of
+    each embedded, and the test split's observed images."""
+    depth, valid = data.groups(data.train_idx)
+    model, record = fit_encoder(depth, valid, cfg=cfg, device=compute.device, log=log)
+    started = time.perf_counter()
+    n, g, h, w = depth.shape
+    train = embed(model, depth.reshape(n * g, h, w), valid.reshape(n * g, h, w)).reshape(n, g, -1)
+    test_depth = data.depth_m[data.test_idx]
+    test = embed(model, test_depth, np.isfinite(test_depth))
+    record["embed_seconds"] = round(time.perf_counter() - started, 3)
+    return model, record, {"train": train, "test": test}
 
 
 @dataclass(frozen=True)
@@ -181,7 +202,7 @@ def probe_runs(dataset_path, encoders: dict, *, runs: ProbeRuns, out_path, log=N
     from threadpoolctl import threadpool_limits
 
     data = Dataset.load(dataset_path, skip=SCENE_FIELDS)
-    facts = {}
+    health = {}
     for eseed in sorted(set(runs.encoders)):
         if eseed not in encoders:
             raise ValueError(f"{dataset}/{method_name}: no files of encoder seed {eseed} given.")
@@ -194,103 +215,173 @@ def probe_runs(dataset_path, encoders: dict, *, runs: ProbeRuns, out_path, log=N
             where=encoders[eseed]["card"],
             encoder_seed=eseed,
         )
-        emb_train, emb_test = load_embeddings(encoders[eseed]["embeddings"], data)
-        facts[eseed] = ProbeData(
+        health[eseed] = (card.get("health") or {}).get("verdict", "healthy")
+    n_total = len(data) if al.get("ratio_of", "train") == "all" else len(data.train_idx)
+
+    def facts_of(eseed):
+        path, encoder = encoders[eseed]["embeddings"], (eseed, health[eseed])
+        if data.task == "segmentation":
+            return load_dense(path, data, n_total=n_total, encoder=encoder)
+        emb_train, emb_test = load_embeddings(path, data)
+        return ProbeData(
             train=emb_train,
             test=emb_test,
             train_labels=data.labels[data.train_idx],
             test_labels=data.labels[data.test_idx],
             test_levels=data.level[data.test_idx],
             n_classes=len(data.classes),
-            n_total=len(data) if al.get("ratio_of", "train") == "all" else len(data.train_idx),
+            n_total=n_total,
             standin=bool(data.meta.get("synthetic_standin", False)),
-            encoder=(eseed, (card.get("health") or {}).get("verdict", "healthy")),
+            encoder=encoder,
         )
+
     spec = MethodSpec(name=method_name, **{"params": {}, **runs.method})
     started = time.perf_counter()
     records = []
+    facts = None  # one encoder's at a time: run seeds read their block's in order
     # One BLAS/OpenMP thread, the job's one core: two -j2 jobs whose OpenMP threads
     # spin on the same two cores made a fit ~250x slower (7 s instead of 27 ms).
     with threadpool_limits(limits=1):
         for seed, eseed in zip(runs.seeds, runs.encoders, strict=True):
+            if facts is None or facts.encoder[0] != eseed:
+                facts = facts_of(eseed)
             records += _run(
-                facts[eseed],
+                facts,
                 spec,
                 which=(dataset, int(seed)),
                 al=al,
                 rounds=int(runs.rounds),
-                c=float((runs.probe or {}).get("c", DEFAULT_C)),
+                probe=runs.probe or {},
                 n_variants=data.n_variants,
             )
     if log is not None:
         print(
             f"{dataset}/{method_name}: {len(records)} rounds of {len(runs.seeds)} seeds "
-            f"({len(facts)} encoders) in {time.perf_counter() - started:.1f} s",
+            f"({len(health)} encoders) in {time.perf_counter() - started:.1f} s",
             file=log,
         )
     write_json(records, out_path)
     return records
 
 
-def _record(facts: ProbeData, model, method: str, *, which, n_labeled, n_images) -> dict:
-    """The metrics record of one round (``report.round_record``): ``model`` measured on
-    the test split. ``which``: (dataset, seed, round); ``n_images``: the images it was
-    fitted on."""
-    dataset, seed, round_ = which
-    correct = model.predict_proba(facts.test).argmax(axis=1) == facts.test_labels
-    levels = facts.test_levels
-    return round_record(
-        (dataset, method, seed, round_),
-        n_labeled=n_labeled,
-        n_pool=len(facts.train),
-        n_total=facts.n_total,
-        metric="accuracy",
-        value=correct.mean(),
-        per_level={lv: correct[levels == lv].mean() for lv in LEVELS if (levels == lv).any()},
-        synthetic_standin=facts.standin,
-        framework=FRAMEWORK,
-        train_images=int(n_images),
-        precision=EMBEDDING.measured_at,  # a linear classifier fitted and measured in fp32
-        encoder=int(facts.encoder[0]),
-        encoder_health=facts.encoder[1],
-    )
+class _LinearRounds:
+    """A classification run's learner: ``LinearProbe`` on the groups' embeddings,
+    accuracy on the test split."""
+
+    metric = "accuracy"
+
+    def __init__(self, facts: ProbeData, probe: dict) -> None:
+        self.facts, self.c = facts, float(probe.get("c", DEFAULT_C))
+        self.n_train, self.n_classes = len(facts.train), facts.n_classes
+        self.labels = facts.train_labels  # the oracle's: read for labeled groups alone
+        self.observed = facts.train[:, 0]  # what a cold start reads
+
+    def fit(self, lab, n_images: int, rng) -> tuple:
+        """(model, x, y) fitted on the first ``n_images`` images of groups ``lab``."""
+        x = self.facts.train[lab, :n_images].reshape(-1, self.facts.train.shape[-1])
+        y = np.repeat(self.labels[lab], n_images)
+        return LinearProbe(self.n_classes, self.c).fit(x, y), x, y
+
+    def measure(self, model) -> tuple[float, dict]:
+        """(accuracy, level -> accuracy) on the test split."""
+        facts = self.facts
+        correct = model.predict_proba(facts.test).argmax(axis=1) == facts.test_labels
+        levels = facts.test_levels
+        per_level = {lv: correct[levels == lv].mean() for lv in LEVELS if (levels == lv).any()}
+        return correct.mean(), per_level
+
+    def inputs(self, model, needs, pool, *, n_images: int, head) -> StrategyInputs:
+        return probe_inputs(
+            model,
+            self.facts.train,
+            needs,
+            unlabeled_idx=pool.unlabeled_idx,
+            labeled_idx=pool.labeled_idx,
+            n_images=n_images,
+            head=head,
+        )
 
 
-def _run(facts: ProbeData, spec: MethodSpec, *, which, al, rounds, c, n_variants) -> list[dict]:
-    """The records of one (method, seed) run: fit, measure and query, round by round."""
+class _DenseRounds:
+    """A segmentation run's learner: ``DenseProbe`` on the scans' units, mIoU on the
+    test split's pixels (``spl_al.experiment.dense_embedding``)."""
+
+    metric = "miou"
+
+    def __init__(self, facts: DenseProbeData, probe: dict) -> None:
+        self.facts, self.probe = facts, dict(probe)
+        self.n_train, self.n_classes = len(facts.train), len(facts.classes)
+        self.labels = None  # no scan-level class: a stratified round 0 is refused
+        self.observed = pooled_features(facts.train[:, 0], facts.train_valid[:, 0])
+        self.previous = None
+
+    def fit(self, lab, n_images: int, rng) -> tuple:
+        """(model, x, y); each round's fit starts from the previous round's."""
+        fitted = dense_embedding.fit_probe(
+            self.facts, lab, n_images, probe=self.probe, rng=rng, start=self.previous
+        )
+        self.previous = fitted[0]
+        return fitted
+
+    def measure(self, model) -> tuple[float, dict]:
+        return dense_embedding.test_miou(self.facts, model)
+
+    def inputs(self, model, needs, pool, *, n_images: int, head) -> StrategyInputs:
+        return dense_embedding.query_inputs(
+            self.facts, model, needs, pool, n_images=n_images, head=head
+        )
+
+
+def _learner(facts, probe: dict):
+    """The run's learner: the dense one for segmentation's facts."""
+    dense = isinstance(facts, DenseProbeData)
+    return _DenseRounds(facts, probe) if dense else _LinearRounds(facts, probe)
+
+
+def _run(facts, spec: MethodSpec, *, which, al, rounds, probe: dict, n_variants) -> list[dict]:
+    """The records of one (method, seed) run: fit, measure and query, round by round.
+
+    ``facts``: ``ProbeData`` (classification) or ``dense_embedding.DenseProbeData``
+    (segmentation); ``probe``: config ``embedding.probe``."""
     dataset, seed = which
+    learner = _learner(facts, probe)
     strategy = get(spec.strategy, **spec.params)
     m_train = spec.train_variants(n_variants)
-    n_train = len(facts.train)
     start = spec.initial or initial_strategy(al, f"datasets.{dataset}.al")
     labeled, chosen = round0_set(
         start,
-        n_train,
+        learner.n_train,
         int(al["initial"]),
         seed,
-        labels=facts.train_labels if start == STRATIFIED else None,
-        embeddings=facts.train[:, 0] if is_cold_start(start) else None,
-        n_classes=facts.n_classes,
+        labels=learner.labels if start == STRATIFIED else None,
+        embeddings=learner.observed if is_cold_start(start) else None,
+        n_classes=learner.n_classes,
         where=f"datasets.{dataset}.al.initial",
     )
-    pool = Pool(n_train, labeled)
+    pool = Pool(learner.n_train, labeled)
     records = []
     for r in range(rounds):
         started = time.perf_counter()
         lab = pool.labeled_idx
-        x = facts.train[lab, : m_train + 1].reshape(-1, facts.train.shape[-1])
-        model = LinearProbe(facts.n_classes, c).fit(
-            x, np.repeat(facts.train_labels[lab], m_train + 1)
-        )
+        rng = round_rng(TRAIN, seed, r)
+        model, x, y = learner.fit(lab, m_train + 1, rng)
         fit_seconds = time.perf_counter() - started
+        value, per_level = learner.measure(model)
         records.append(
-            _record(
-                facts,
-                model,
-                spec.name,
-                which=(dataset, seed, r),
+            round_record(
+                (dataset, spec.name, seed, r),
                 n_labeled=lab.size,
-                n_images=len(x),
+                n_pool=learner.n_train,
+                n_total=facts.n_total,
+                metric=learner.metric,
+                value=value,
+                per_level=per_level,
+                synthetic_standin=facts.standin,
+                framework=FRAMEWORK,
+                train_images=int(lab.size * (m_train + 1)),
+                precision=EMBEDDING.measured_at,  # a linear classifier fitted and measured in fp32
+                encoder=int(facts.encoder[0]),
+                encoder_health=facts.encoder[1],
             )
         )
         records[-1].update(train_seconds=round(fit_seconds, 4), pool_indices=lab.tolist())
@@ -300,17 +391,9 @@ def _run(facts: ProbeData, spec: MethodSpec, *, which, al, rounds, c, n_variants
             break
         head = None
         if "head" in strategy.needs:  # DropQuery's own head, trained under its dropout
-            y = np.repeat(facts.train_labels[lab], m_train + 1)
-            fitted = DropoutHead(facts.n_classes).fit(x, y, round_rng(TRAIN, seed, r))
-            head = fitted.head()
-        inputs = probe_inputs(
-            model,
-            facts.train,
-            strategy.needs,
-            unlabeled_idx=pool.unlabeled_idx,
-            labeled_idx=lab,
-            n_images=1 + spec.variants_seen(n_variants),
-            head=head,
+            head = dropout_head(x, y, learner.n_classes, rng).head()
+        inputs = learner.inputs(
+            model, strategy.needs, pool, n_images=1 + spec.variants_seen(n_variants), head=head
         )
         where = {"seed": seed, "round_": r + 1, "dataset": dataset, "method": spec.name}
         pool.add(query_batch(strategy, spec.strategy, inputs, batch_of(al, r + 1), **where))

@@ -105,6 +105,12 @@ def load_embeddings(path, data) -> tuple[np.ndarray, np.ndarray]:
     """(train (n_train, G, d), test (n_test, d)) of ``train_encoder``'s file, checked
     against the dataset's split."""
     with np.load(path, allow_pickle=False) as f:
+        if "train_units" in f.files:
+            raise ValueError(
+                f"{path}: a dense encoder's per-pixel features, which only the embedding "
+                "framework's segmentation runs read; select on the trained model's features "
+                "(features: model) on a segmentation dataset."
+            )
         if not (
             np.array_equal(f["train_idx"], data.train_idx)
             and np.array_equal(f["test_idx"], data.test_idx)

@@ -140,8 +140,11 @@ def check_strategies(config: dict, specs: dict | None = None) -> None:
             )
     checked = set()
     for dataset in config["datasets"]:
-        names = [n for fw in framework_names() for n, _seed in dataset_runs(config, dataset, fw)]
-        for name in dict.fromkeys(names):
+        frameworks: dict[str, set] = {}
+        for fw in framework_names():
+            for n, _seed in dataset_runs(config, dataset, fw):
+                frameworks.setdefault(n, set()).add(fw)
+        for name in frameworks:
             if name not in specs:
                 continue  # check_plan names it
             spec = dataset_method(config, dataset, name, specs)
@@ -158,11 +161,13 @@ def check_strategies(config: dict, specs: dict | None = None) -> None:
                     "class count, as in params: {n_classes: 11})."
                 )
             task = config["datasets"][dataset].get("task")
-            if "head" in strategy.needs and task != "classification":
+            supervised = frameworks[name] - {EMBEDDING.name}
+            if "head" in strategy.needs and task != "classification" and supervised:
+                # the embedding framework's dense probe gives it a head on pooled features
                 raise ValueError(
                     f"config key 'methods.{name}': {spec.strategy} reads a classifier's last "
                     f"layer, but {dataset} is a {task} dataset; run it on a classification "
-                    "dataset."
+                    "dataset or in its embedding framework."
                 )
             if key in checked:
                 continue

@@ -826,10 +826,22 @@ INCONSISTENCY_CLAIMS = (
 )
 
 
-def encoder_claim_notes(objective: str) -> dict[str, str]:
+DENSE_SIV_ENCODER_NOTE = (
+    "(Embedding framework: the dense encoder was trained with a scan's SIV variants as "
+    "positives, pixel by pixel, to embed them alike, which is the disagreement this term "
+    "reads; the probe also reads nine local depth features, which the variants change.)"
+)
+"""``SIV_ENCODER_NOTE`` of a segmentation dataset's dense encoder."""
+
+
+def encoder_claim_notes(objective: str, task: str = "classification") -> dict[str, str]:
     """Claim id -> note for the embedding framework's claims about the inconsistency
-    term, given the encoder's ``objective`` ("siv" or "generic")."""
-    return dict.fromkeys(INCONSISTENCY_CLAIMS, SIV_ENCODER_NOTE) if objective == "siv" else {}
+    term, given the encoder's ``objective`` ("siv" or "generic") and the dataset's
+    ``task`` (segmentation: the dense encoder's note)."""
+    if objective != "siv":
+        return {}
+    note = DENSE_SIV_ENCODER_NOTE if task == "segmentation" else SIV_ENCODER_NOTE
+    return dict.fromkeys(INCONSISTENCY_CLAIMS, note)
 
 
 def render_claims_markdown(frame: pd.DataFrame, dataset: str | None = None) -> str:

@@ -146,25 +146,29 @@ def _budget_line(block: Mapping, ctx: TableContext) -> str:
     )
 
 
+def _swept(block: Mapping, sweeps: Mapping) -> dict:
+    """The sweeps the block runs: those it names a round for."""
+    return {p: values for p, values in sweeps.items() if p in block["rounds"]}
+
+
 def _sensitivity_runs(block: Mapping, ctx: TableContext) -> Runs:
     return [
         (values.values(), block["seeds"], block["rounds"][parameter] + 1)
-        for parameter, values in ctx.sweeps.items()
+        for parameter, values in _swept(block, ctx.sweeps).items()
     ]
 
 
 def _sensitivity_line(block: Mapping, ctx: TableContext) -> str:
     swept = "; ".join(
         f"{param} {numbers_text(values)} at round {block['rounds'][param]}"
-        for param, values in ctx.sweeps.items()
-        if param in block["rounds"]
+        for param, values in _swept(block, ctx.sweeps).items()
     )
     return f"sensitivity: {swept}; seeds {numbers_text(block['seeds'])}"
 
 
 def _sensitivity_build(records: pd.DataFrame, ctx: TableContext) -> pd.DataFrame:
-    rounds = _for_m(ctx.experiments["sensitivity"]["rounds"])
-    return sensitivity_table(records, _for_m(ctx.sweeps), rounds)
+    block = ctx.experiments["sensitivity"]
+    return sensitivity_table(records, _for_m(_swept(block, ctx.sweeps)), _for_m(block["rounds"]))
 
 
 register(
