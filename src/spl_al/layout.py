@@ -1,14 +1,15 @@
 """Where a run's files lie in its results folder: the one home of the files that the
 workflow writes and something else reads back (the library's steps, the benches, the
 docs generators). A job's own working files (logs, benchmarks, the round-0 fits under
-``initial*/``, a round's query and labeling batch, the embedding framework's encoders
-and runs) are named in the rule that writes them.
+``initial*/``, a round's query and labeling batch, the embedding framework's runs) are
+named in the rule that writes them.
 
 ```
 {results}/{dataset}/data/{dataset.npz, observed.npz, variants/}
 {results}/{dataset}/initial[_{start}]/seed{seed}.json           round 0's labeled set
 {results}/{dataset}/{method}/seed{seed}/round{r}/{labeled.json, model.pt, metrics.json, scores.npz}
 {folder}/tables/{name}, {folder}/figures/{name}                 a framework's folder
+{folder}/encoders/seed{eseed}/{encoder.pt, card.json, embeddings.npz}   an encoder's
 ```
 
 A framework's folder is ``results/{dataset}`` or a subfolder of it
@@ -58,3 +59,20 @@ def table_file(folder, name: str) -> str:
 def figure_file(folder, name: str) -> str:
     """A figure of a framework's folder: ``curves.png``, ..."""
     return f"{folder}/figures/{name}"
+
+
+ENCODER_FILES = ENCODER_WEIGHTS, ENCODER_CARD, ENCODER_EMBEDDINGS = (
+    "encoder.pt",
+    "card.json",
+    "embeddings.npz",
+)
+"""An encoder's files, side by side: its weights, its card and the embeddings the runs
+read."""
+
+
+def encoder_file(folder, eseed, name: str) -> str:
+    """File ``name`` (``ENCODER_FILES``) of the encoder of seed ``eseed`` of an
+    embedding framework's folder."""
+    if name not in ENCODER_FILES:
+        raise ValueError(f"an encoder's files are {list(ENCODER_FILES)}, not {name!r}.")
+    return f"{folder}/encoders/seed{eseed}/{name}"

@@ -11,9 +11,9 @@ rule encoder:
     input:
         data=DATASET_FILE,
     output:
-        encoder=f"{EMBEDDING}/encoders/seed{{eseed}}/encoder.pt",
-        card=f"{EMBEDDING}/encoders/seed{{eseed}}/card.json",
-        embeddings=f"{EMBEDDING}/encoders/seed{{eseed}}/embeddings.npz",
+        encoder=layout.encoder_file(EMBEDDING, "{eseed}", "encoder.pt"),
+        card=layout.encoder_file(EMBEDDING, "{eseed}", "card.json"),
+        embeddings=layout.encoder_file(EMBEDDING, "{eseed}", "embeddings.npz"),
     log:
         f"{EMBEDDING_LOGS}/encoder_seed{{eseed}}.log",
     benchmark:

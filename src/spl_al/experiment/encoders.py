@@ -21,6 +21,7 @@ import numpy as np
 
 from spl_al.atomic import read_json
 from spl_al.frameworks import EMBEDDING
+from spl_al.layout import ENCODER_CARD
 
 PLAN_KEYS = ("seeds", "block")
 """Keys of ``embedding.encoder`` that plan encoders rather than describe one."""
@@ -126,7 +127,7 @@ def embeddings_source(path) -> dict:
     """What a round-0 record says of the encoder behind an embeddings file: its seed
     and weights' hash, from the card beside it (``train_encoder``'s layout), and the
     file itself."""
-    card_path = Path(path).with_name("card.json")
+    card_path = Path(path).with_name(ENCODER_CARD)
     card = read_json(card_path) if card_path.is_file() else {}
     return {
         "embeddings": str(path),

@@ -21,7 +21,9 @@ def embedding_entry(dataset):
 
 def encoder_file(dataset, eseed, name):
     """One of encoder ``eseed``'s files: encoder.pt, card.json or embeddings.npz."""
-    return f"{EMBEDDING_FRAMEWORK.folder(RESULTS, dataset)}/encoders/seed{eseed}/{name}"
+    return layout.encoder_file(
+        EMBEDDING_FRAMEWORK.folder(RESULTS, dataset), eseed, name
+    )
 
 
 @functools.cache
