@@ -368,3 +368,25 @@ def test_a_probe_started_from_the_last_round_finds_the_same_classifier():
     agree = (cold.predict(x) == warm.predict(x)).mean()
     assert agree > 0.99
     np.testing.assert_allclose(warm.predict_proba(x[:50]).sum(1), 1, rtol=1e-5)
+
+
+def test_the_dense_bench_probes_sampled_pixels_as_the_rounds_fit_them(street):
+    """bench dense --units: the probe reads the labeled scans' sampled valid pixels only
+    (the rounds' view); every pixel sampled is the full probe."""
+    from spl_al.bench.dense import probe_miou
+    from spl_al.experiment.dense_embedding import sample_units
+
+    _, data, _, _ = street
+    rng = np.random.default_rng(0)
+    feats = np.stack([data.depth_m, np.isfinite(data.depth_m)], -1)
+    feats = np.nan_to_num(feats) + rng.normal(size=feats.shape) * 0.01
+    labeled, held_out = np.arange(8), np.arange(20, 28)
+    kw = dict(seed=1, c=1.0, balance=0.5)
+    full = probe_miou(data, feats, labeled, held_out, **kw)
+    pixels = int(np.prod(data.depth_m.shape[1:]))
+    every = sample_units(data.valid, pixels, rng)
+    assert probe_miou(data, feats, labeled, held_out, units=every, **kw) == pytest.approx(
+        full, abs=0.02
+    )
+    few = sample_units(data.valid, 4, rng)
+    assert probe_miou(data, feats, labeled, held_out, units=few, **kw) != full
