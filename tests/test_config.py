@@ -514,3 +514,15 @@ def test_the_second_draw_config_changes_the_encoder_seeds_alone():
     assert draw2.pop("results") == "results/draw2"
     default.pop("results")
     assert draw2 == default
+
+
+def test_a_sweep_point_keeps_the_dataset_s_parameters_but_the_one_it_varies():
+    """One parameter varied, the others the dataset's: street_seg's N_cand of 80 in
+    duis_alpha0.25, the swept value in duis_ncand40."""
+    from spl_al.experiment.plan import dataset_method
+
+    config = _merged("street.yaml")
+    assert dataset_method(config, "street_seg", "duis_alpha0.25").params["n_cand"] == 80
+    assert dataset_method(config, "street_seg", "duis_alpha0.25").params["alpha"] == 0.25
+    assert dataset_method(config, "street_seg", "duis_ncand40").params["n_cand"] == 40
+    assert dataset_method(_merged(), "real_cls", "duis_alpha0.25").params["n_cand"] == 160

@@ -307,13 +307,20 @@ def experiments_of(config: dict, dataset: str, specs=None, framework=DEFAULT) ->
 
 def dataset_method(config: dict, dataset: str, name: str, specs=None) -> MethodSpec:
     """The method ``name`` as run on ``dataset``: the dataset's ``method_params`` (e.g.
-    the paper's N_cand = 500 on its synthetic set) update the method's parameters."""
+    the paper's N_cand = 500 on its synthetic set) update the method's parameters. A
+    cold-start arm without its own entry takes its base method's; a sweep point takes
+    its base's but for the parameter it varies (one parameter varied, the others the
+    dataset's)."""
     specs = specs if specs is not None else method_specs(config)
     spec = specs[name]
     own = config["datasets"][dataset].get("method_params") or {}
     override = own.get(name)
     if override is None and spec.initial is not None and START_INFIX in name:
         override = own.get(name.rsplit(START_INFIX, 1)[0])  # a cold-start arm: its base's
+    point = sweep_points(config).get(name) if override is None else None
+    if point is not None:
+        override = {k: v for k, v in (own.get(point["base"]) or {}).items()}
+        override.pop(point["parameter"], None)
     if not override:
         return spec
     return replace(spec, params={**spec.params, **override})
