@@ -379,3 +379,12 @@ def test_query_bench_splits_the_time_of_a_duis_query(capsys):
     for part in ("predict (SmallCNN", "variants (photon", "selection (k-means", "**whole query**"):
         assert part in out
     assert "Overhead (outside predict)" in out and out.count("| 0.2 |") >= 2
+
+
+def test_the_pipeline_bench_names_the_embedding_framework_s_rules():
+    from spl_al.bench.pipeline import embedding_rule_of
+
+    assert embedding_rule_of("encoder_seed11") == "encoder"
+    assert embedding_rule_of("table_budget") == "embedding_table"
+    assert embedding_rule_of("stats") == "embedding_stats"
+    assert embedding_rule_of("syn_dropquery") == "probe_runs"

@@ -15,6 +15,7 @@ from collections import defaultdict
 from pathlib import Path
 
 from spl_al.bench.timing import markdown_table
+from spl_al.frameworks import EMBEDDING
 
 _RULE_OF = (
     # a simulated oracle's round 0 copies the shared fit (train_initial): no training
@@ -38,6 +39,18 @@ def rule_of(stem: str) -> str:
     return stem
 
 
+_EMBEDDING_REPORTS = ("table", "curves", "level_curves", "summary", "stats", "batch_conditions")
+
+
+def embedding_rule_of(stem: str) -> str:
+    """The rule of a benchmark file under an embedding framework's folder: an encoder,
+    a report rule, else a method's probe runs (their files are named by the method)."""
+    if re.fullmatch(r"encoder_seed\d+", stem):
+        return "encoder"
+    rule = rule_of(stem)
+    return f"embedding_{rule}" if rule in _EMBEDDING_REPORTS else "probe_runs"
+
+
 def job_times(results: Path):
     """Yield (rule, job wall s, compute s or None) for every benchmarked job."""
     for tsv in sorted((results / "benchmarks").rglob("*.tsv")):
@@ -50,7 +63,8 @@ def job_times(results: Path):
         if log.exists():
             match = re.search(r"^compute_seconds: ([0-9.]+)$", log.read_text(), re.M)
             compute = float(match.group(1)) if match else None
-        yield rule_of(tsv.stem), wall, compute
+        embedded = tsv.parent.name == EMBEDDING.subfolder
+        yield (embedding_rule_of if embedded else rule_of)(tsv.stem), wall, compute
 
 
 def main(argv: list[str]) -> int:
