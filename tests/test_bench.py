@@ -3,6 +3,7 @@ the projection's counts, the capture bench."""
 
 import ast
 import dataclasses
+import json
 from pathlib import Path
 
 import numpy as np
@@ -388,3 +389,17 @@ def test_the_pipeline_bench_names_the_embedding_framework_s_rules():
     assert embedding_rule_of("table_budget") == "embedding_table"
     assert embedding_rule_of("stats") == "embedding_stats"
     assert embedding_rule_of("syn_dropquery") == "probe_runs"
+
+
+def test_the_pipeline_bench_reads_what_embedding_rounds_cost(tmp_path):
+    from spl_al.bench.pipeline import round_rows
+
+    runs = tmp_path / "street_seg" / "embedding" / "runs"
+    runs.mkdir(parents=True)
+    records = [
+        {"round": 0, "train_seconds": 0.1, "seconds": 0.3},
+        {"round": 1, "train_seconds": 0.3, "seconds": 0.5},
+        {"round": 2, "train_seconds": 0.9},
+    ]
+    (runs / "duis.json").write_text(json.dumps(records))
+    assert round_rows(tmp_path) == [["street_seg", "duis", 3, "0.200", "0.400"]]

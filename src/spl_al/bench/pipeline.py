@@ -5,11 +5,16 @@ the ``compute_seconds`` line its log ends with (time after the job's heavy impor
 and prints per rule: jobs, job wall, compute, start-up (job wall - compute). Against
 the run's wall time on C cores it splits the machine's time into compute, job
 start-up (interpreter and imports) and the rest (scheduler, idle cores).
+
+``--rounds`` adds, per dataset and method of the embedding framework, what its rounds
+cost: the mean seconds of a round's fit and of a whole round (fit, test, query), from
+the records of ``RESULTS/{dataset}/embedding/runs/{method}.json``.
 """
 
 from __future__ import annotations
 
 import argparse
+import json
 import re
 from collections import defaultdict
 from pathlib import Path
@@ -67,12 +72,39 @@ def job_times(results: Path):
         yield (embedding_rule_of if embedded else rule_of)(tsv.stem), wall, compute
 
 
+def round_rows(results: Path) -> list[list]:
+    """[dataset, method, rounds, fit s, round s] of every embedding framework's runs
+    file: the mean over its rounds with a query of the fit (``train_seconds``) and of
+    the whole round (``seconds``: fit, test, query)."""
+    rows = []
+    for path in sorted(results.glob(f"*/{EMBEDDING.subfolder}/runs/*.json")):
+        records = json.loads(path.read_text())
+        queried = [r for r in records if "seconds" in r and "train_seconds" in r]
+        if not queried:
+            continue
+        fits = [r["train_seconds"] for r in queried]
+        whole = [r["seconds"] for r in queried]
+        rows.append(
+            [
+                path.parents[2].name,
+                path.stem,
+                len(records),
+                f"{sum(fits) / len(fits):.3f}",
+                f"{sum(whole) / len(whole):.3f}",
+            ]
+        )
+    return rows
+
+
 def main(argv: list[str]) -> int:
     """Summarise a run's per-rule benchmark files; print the table; the exit code."""
     parser = argparse.ArgumentParser(prog="python -m spl_al.bench pipeline")
     parser.add_argument("results", type=Path, help="the run's results folder")
     parser.add_argument("--wall", type=float, required=True, help="the run's wall time, s")
     parser.add_argument("--cores", type=int, default=2)
+    parser.add_argument(
+        "--rounds", action="store_true", help="also the embedding framework's round costs"
+    )
     args = parser.parse_args(argv)
     if not (args.results / "benchmarks").is_dir():
         print(f"error: {args.results}/benchmarks does not exist; run the workflow first.")
@@ -122,4 +154,9 @@ def main(argv: list[str]) -> int:
         f"scheduler and idle cores {(machine - job_wall) / machine:.1%}; "
         f"scheduler + start-up + idle = {(machine - compute) / machine:.1%}"
     )
+    if args.rounds:
+        print()
+        header = ["dataset", "method", "rounds", "fit s", "round s (fit, test, query)"]
+        print("The embedding framework's rounds that queried, mean seconds:\n")
+        print(markdown_table(header, round_rows(args.results)))
     return 0
