@@ -75,7 +75,8 @@ def test_a_batch_list_needs_one_batch_per_query(default):
         assert message.startswith("config key 'datasets.street_seg.al.batch' lists ")
         assert f"lists {queries} per-round batches but the dataset's experiments make 4" in message
         assert message.count(". ") == 0 and message.endswith(".")
-    # fewer rounds with a list that matches them is fine
+    # fewer rounds with a list that matches them is fine (the supervised framework alone)
+    config["datasets"]["street_seg"].pop("embedding")
     al["batch"] = [6, 6]
     config["datasets"]["street_seg"]["experiments"]["budget"]["rounds"] = 3
     config["datasets"]["street_seg"]["experiments"]["levels"]["round"] = 2
@@ -113,7 +114,9 @@ def test_batch_of_a_list_and_past_its_end():
 
 def test_n_cand_above_half_a_pool_is_refused_when_the_config_parses(default):
     config = copy.deepcopy(default)
-    # the old street setting: N_cand 160 of 206 unlabeled scans at the first query
+    # the old street setting: N_cand 160 of 206 unlabeled scans at the first query (the
+    # supervised framework's DUIS; the embedding framework's would add Syn+Diversity)
+    config["datasets"]["street_seg"].pop("embedding")
     config["datasets"]["street_seg"].pop("method_params")
     with pytest.raises(ValueError) as err:
         check_plan(config)

@@ -96,6 +96,17 @@ def round_rows(results: Path) -> list[list]:
     return rows
 
 
+def rule_totals(results: Path) -> dict:
+    """rule -> [jobs, job wall s, compute s] of a run's benchmarked jobs."""
+    per_rule = defaultdict(lambda: [0, 0.0, 0.0])
+    for rule, wall, compute in job_times(results):
+        row = per_rule[rule]
+        row[0] += 1
+        row[1] += wall
+        row[2] += wall if compute is None else min(compute, wall)
+    return per_rule
+
+
 def main(argv: list[str]) -> int:
     """Summarise a run's per-rule benchmark files; print the table; the exit code."""
     parser = argparse.ArgumentParser(prog="python -m spl_al.bench pipeline")
@@ -110,12 +121,7 @@ def main(argv: list[str]) -> int:
         print(f"error: {args.results}/benchmarks does not exist; run the workflow first.")
         return 2
 
-    per_rule = defaultdict(lambda: [0, 0.0, 0.0])
-    for rule, wall, compute in job_times(args.results):
-        row = per_rule[rule]
-        row[0] += 1
-        row[1] += wall
-        row[2] += wall if compute is None else min(compute, wall)
+    per_rule = rule_totals(args.results)
     rows = []
     for rule, (n, wall, compute) in sorted(per_rule.items(), key=lambda kv: -kv[1][1]):
         rows.append(
