@@ -193,8 +193,19 @@ def test_dense_probe_inputs_give_duis_the_papers_units():
     assert len(set(picks.tolist())) == 3 and set(picks.tolist()) <= set(unlabeled.tolist())
 
 
-def test_dense_probe_inputs_serve_every_segmentation_strategy():
+def pool_inputs(probe, feats, valid, strategy, split, head=None):
+    """``dense_probe_inputs`` for ``strategy`` on one image a group; ``split``:
+    (unlabeled, labeled) indices."""
     from spl_al.dense_probe import dense_probe_inputs
+
+    unlabeled, labeled = split
+    return dense_probe_inputs(
+        probe, feats, valid, strategy.needs, unlabeled_idx=unlabeled, labeled_idx=labeled,
+        n_images=1, head=head,
+    )  # fmt: skip
+
+
+def test_dense_probe_inputs_serve_every_segmentation_strategy():
     from spl_al.strategies import get
 
     feats, valid, labels = dense_pool(seed=1)
@@ -205,35 +216,19 @@ def test_dense_probe_inputs_serve_every_segmentation_strategy():
     )
     for name in ("entropy", "margin", "coreset", "badge", "typiclust", "probcover"):
         strategy = get(name)
-        inputs = dense_probe_inputs(
-            probe,
-            feats,
-            valid,
-            strategy.needs,
-            unlabeled_idx=unlabeled,
-            labeled_idx=labeled,
-            n_images=1,
-        )
+        inputs = pool_inputs(probe, feats, valid, strategy, (unlabeled, labeled))
         if getattr(strategy, "n_classes", 0) is None:
             strategy.n_classes = 3
         picks = strategy.select(inputs, 2, np.random.default_rng(0))
         assert len(set(picks.tolist())) == 2 and set(picks.tolist()) <= set(unlabeled.tolist())
     with pytest.raises(ValueError, match="takes a head"):
-        dense_probe_inputs(
-            probe,
-            feats,
-            valid,
-            get("dropquery").needs,
-            unlabeled_idx=unlabeled,
-            labeled_idx=labeled,
-            n_images=1,
-        )
+        pool_inputs(probe, feats, valid, get("dropquery"), (unlabeled, labeled))
 
 
 def test_dropquery_passes_a_head_over_the_pooled_features():
     """DropQuery in the dense setting: a dropout-trained head on the labeled units,
     its passes over each scan's pooled features (the mean of its units' logits)."""
-    from spl_al.dense_probe import dense_probe_inputs, pooled_features
+    from spl_al.dense_probe import pooled_features
     from spl_al.linear_probe import DropoutHead
     from spl_al.strategies import get
 
@@ -244,16 +239,7 @@ def test_dropquery_passes_a_head_over_the_pooled_features():
     probe = DenseProbe(3).fit(x, y, np.random.default_rng(0))
     head = DropoutHead(3).fit(x, y, np.random.default_rng(0)).head()
     strategy = get("dropquery")
-    inputs = dense_probe_inputs(
-        probe,
-        feats,
-        valid,
-        strategy.needs,
-        unlabeled_idx=unlabeled,
-        labeled_idx=labeled,
-        n_images=1,
-        head=head,
-    )
+    inputs = pool_inputs(probe, feats, valid, strategy, (unlabeled, labeled), head=head)
     np.testing.assert_allclose(
         inputs.features, pooled_features(feats[unlabeled, 0], valid[unlabeled, 0]), rtol=1e-5
     )

@@ -38,6 +38,7 @@ from spl_al.dense_probe import (
     dense_probe_inputs,
     local_depth_features,
 )
+from spl_al.experiment.encoders import check_split
 from spl_al.label_codes import IGNORE_INDEX
 from spl_al.seeding import units_rng
 
@@ -151,14 +152,7 @@ def load_dense(path, data, *, n_total: int, encoder: tuple[int, str]) -> DensePr
                 f"{path}: embeddings of a classification encoder, but the dataset segments; "
                 "train the encoder again (remove it and rerun)."
             )
-        if not (
-            np.array_equal(f["train_idx"], data.train_idx)
-            and np.array_equal(f["test_idx"], data.test_idx)
-        ):
-            raise ValueError(
-                f"{path}: embeddings of another train/test split than the dataset's; train "
-                "the encoder again (remove it and rerun)."
-            )
+        check_split(f, data, path)
         arrays = {k: f[k] for k in ("train", "train_valid", "train_units", "test", "test_units")}
     n_train = len(data.train_idx)
     train_labels = data.labels[data.train_idx].reshape(n_train, -1)

@@ -112,15 +112,21 @@ def load_embeddings(path, data) -> tuple[np.ndarray, np.ndarray]:
                 "framework's segmentation runs read; select on the trained model's features "
                 "(features: model) on a segmentation dataset."
             )
-        if not (
-            np.array_equal(f["train_idx"], data.train_idx)
-            and np.array_equal(f["test_idx"], data.test_idx)
-        ):
-            raise ValueError(
-                f"{path}: embeddings of another train/test split than the dataset's; train "
-                "the encoder again (remove it and rerun)."
-            )
+        check_split(f, data, path)
         return f["train"], f["test"]
+
+
+def check_split(embeddings, data, path) -> None:
+    """A ValueError, one sentence, unless an embeddings file (an open ``np.load``)
+    holds ``data``'s train/test split."""
+    if not (
+        np.array_equal(embeddings["train_idx"], data.train_idx)
+        and np.array_equal(embeddings["test_idx"], data.test_idx)
+    ):
+        raise ValueError(
+            f"{path}: embeddings of another train/test split than the dataset's; train "
+            "the encoder again (remove it and rerun)."
+        )
 
 
 def embeddings_source(path) -> dict:
