@@ -413,3 +413,24 @@ def test_the_probe_bench_trains_the_configs_encoder_recipe():
         assert "seeds" not in settings and "block" not in settings
         cfg = EncoderConfig.from_dict(settings)
         assert cfg.seed == 0 and cfg.steps == settings["steps"]
+
+
+def test_one_thread_reaches_the_libraries_a_round_loads_later():
+    """A probe-runs job limits scipy's own OpenBLAS and scikit-learn's OpenMP too, not
+    only the pools loaded before its limit: in a fresh interpreter, every pool a fit and
+    a k-means use has one thread inside ``one_thread``."""
+    import subprocess
+    import sys
+
+    code = (
+        "import numpy, threadpoolctl\n"
+        "from spl_al.blas_threads import one_thread\n"
+        "with one_thread():\n"
+        "    from sklearn.linear_model import LogisticRegression\n"
+        "    LogisticRegression().fit(numpy.eye(4), [0, 1, 0, 1])\n"
+        "    pools = threadpoolctl.threadpool_info()\n"
+        "print(len(pools), max(p['num_threads'] for p in pools))\n"
+    )
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    n_pools, most = map(int, out.stdout.split())
+    assert n_pools >= 2 and most == 1

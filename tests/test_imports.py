@@ -45,7 +45,14 @@ LAYERS: list[tuple[str, list[str]]] = [
     ("kit", ["spl_al.config", "spl_al.frameworks", "spl_al.plotting"]),
     (
         "ground",
-        ["spl_al", "spl_al.atomic", "spl_al.label_codes", "spl_al.layout", "spl_al.seeding"],
+        [
+            "spl_al",
+            "spl_al.atomic",
+            "spl_al.blas_threads",
+            "spl_al.label_codes",
+            "spl_al.layout",
+            "spl_al.seeding",
+        ],
     ),
 ]
 

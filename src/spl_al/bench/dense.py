@@ -37,6 +37,7 @@ import numpy as np
 from spl_al.bench.encoders import parse_recipe
 from spl_al.bench.learnability import learner_score, linear_reference, tuning_split
 from spl_al.bench.timing import markdown_table
+from spl_al.blas_threads import one_thread
 from spl_al.data import Dataset
 from spl_al.dense_probe import DenseProbe, local_depth_features
 from spl_al.experiment.dense_embedding import FIT_UNITS, sample_units
@@ -53,9 +54,7 @@ def probe_miou(
     ``features``: (N, H, W, d) of every scan. ``units``: (N, U) flat pixel indices of
     every scan: the probe reads those of the labeled scans alone, at most
     ``dense_embedding.FIT_UNITS``, as the pipeline's rounds fit it (float16 features)."""
-    # torch and threadpoolctl on demand (importing this module does not load them)
-    from threadpoolctl import threadpool_limits
-
+    # torch on demand (importing this module does not load it)
     from spl_al.training.metrics import confusion_per_image, segmentation_summary
 
     keep = dataset.valid[labeled] & (dataset.labels[labeled] != IGNORE)
@@ -69,7 +68,7 @@ def probe_miou(
         y = np.take_along_axis(dataset.labels[labeled].reshape(n, -1), at, axis=1)
         held = np.take_along_axis(keep.reshape(n, -1), at, axis=1)
         x, y, cap = x[held], y[held], {"max_pixels": FIT_UNITS}
-    with threadpool_limits(limits=1):  # as a pipeline job fits it
+    with one_thread():  # as a pipeline job fits it
         probe = DenseProbe(len(dataset.classes), c, balance=balance, **cap)
         probe.fit(x, y, np.random.default_rng(seed))
         f_val = features[held_out]

@@ -40,6 +40,7 @@ import numpy as np
 from spl_al.bench.learnability import default_datasets, tuning_split
 from spl_al.bench.probe import probe_scores
 from spl_al.bench.timing import markdown_table
+from spl_al.blas_threads import one_thread
 from spl_al.data import Dataset
 from spl_al.frameworks import EMBEDDING
 from spl_al.linear_probe import LinearProbe
@@ -89,8 +90,6 @@ def run_recipe(
 ):
     """One recipe's encoders on one dataset: a list of per-encoder results (``saved``,
     called with it after every encoder, keeps a run cut short)."""
-    from threadpoolctl import threadpool_limits
-
     # torch and pandas on demand (importing this module does not load them)
     from spl_al.experiment.plan import labeled_at
     from spl_al.training.contrastive import EncoderConfig, embed, encoder_health, train_encoder
@@ -119,7 +118,7 @@ def run_recipe(
             "probe": {},
             "probe_variants": {},
         }
-        with threadpool_limits(limits=1):
+        with one_thread():
             for n_lab in budgets:
                 for key, variants in (("probe", False), ("probe_variants", True)):
                     result[key][n_lab] = [

@@ -33,6 +33,7 @@ from pathlib import Path
 from spl_al.bench.projection import merged_config, method_variants, model_case, split_sizes
 from spl_al.bench.timing import markdown_table
 from spl_al.bench.training import measure
+from spl_al.blas_threads import one_thread
 from spl_al.config import dataset_precision
 from spl_al.data import Dataset
 from spl_al.data.sources import is_synthesised
@@ -248,7 +249,6 @@ def probe_round_seconds(
     pool, timed ``repeats`` times on random embeddings of the pool's size (the first
     run, imports and warm-up, not counted)."""
     import numpy as np
-    from threadpoolctl import threadpool_limits
 
     m = int(m)
     rng = np.random.default_rng(0)
@@ -258,7 +258,7 @@ def probe_round_seconds(
     unlabeled = np.arange(labeled.size, n_pool)
     g = 1 + spec.variants_seen(m)
     strategy = get(spec.strategy, **_fitting_params(spec, unlabeled.size))
-    with threadpool_limits(limits=1):
+    with one_thread():
         for i in range(1 + repeats):
             if i == 1:
                 started = time.perf_counter()
@@ -356,7 +356,6 @@ def dense_round_seconds(
     (``spl_al.experiment.dense_embedding``) on random features of the pool's units, ``n_test``
     test pixels, 7 classes."""
     import numpy as np
-    from threadpoolctl import threadpool_limits
 
     rng = np.random.default_rng(0)
     units = dense_embedding.UNITS_PER_SCAN
@@ -374,7 +373,7 @@ def dense_round_seconds(
     pool = Pool(n_pool, np.arange(n_labeled))
     g = 1 + spec.variants_seen(int(m))
     strategy = get(spec.strategy, **_fitting_params(spec, n_pool - n_labeled))
-    with threadpool_limits(limits=1):
+    with one_thread():
         for i in range(1 + repeats):
             if i == 1:
                 started = time.perf_counter()

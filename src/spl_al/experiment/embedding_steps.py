@@ -26,6 +26,7 @@ import numpy as np
 
 from spl_al import __version__
 from spl_al.atomic import atomic_write, read_json, write_json
+from spl_al.blas_threads import one_thread
 from spl_al.cold_start import STRATIFIED, initial_strategy, is_cold_start, round0_set
 from spl_al.data import SCENE_FIELDS, Dataset
 from spl_al.data.dataset import LEVELS
@@ -199,8 +200,6 @@ def probe_runs(dataset_path, encoders: dict, *, runs: ProbeRuns, out_path, log=N
     round's labeled set) to ``out_path``.
     """
     dataset, method_name, al = runs.dataset, runs.method_name, runs.al
-    from threadpoolctl import threadpool_limits
-
     data = Dataset.load(dataset_path, skip=SCENE_FIELDS)
     health = {}
     for eseed in sorted(set(runs.encoders)):
@@ -241,7 +240,7 @@ def probe_runs(dataset_path, encoders: dict, *, runs: ProbeRuns, out_path, log=N
     facts = None  # one encoder's at a time: run seeds read their block's in order
     # One BLAS/OpenMP thread, the job's one core: two -j2 jobs whose OpenMP threads
     # spin on the same two cores made a fit ~250x slower (7 s instead of 27 ms).
-    with threadpool_limits(limits=1):
+    with one_thread():
         for seed, eseed in zip(runs.seeds, runs.encoders, strict=True):
             if facts is None or facts.encoder[0] != eseed:
                 facts = facts_of(eseed)
