@@ -232,6 +232,36 @@ def test_the_estimate_times_every_embedding_round_it_plans(strategy):
     assert estimate.dense_round_seconds(spec, n_test=500, dim=12, **sizes) > 0
 
 
+def test_the_estimate_times_an_encoder_at_the_jobs_threads(monkeypatch):
+    """An encoder job trains at its rule's one thread: the estimate times its steps
+    there, whatever torch's count was, and leaves that count as it found it."""
+    import torch
+
+    from spl_al.bench import estimate, projection
+    from spl_al.training import dense_contrastive
+
+    seen = []
+    train = dense_contrastive.train_dense_encoder
+
+    def spy(*args, **kwargs):
+        seen.append(torch.get_num_threads())
+        return train(*args, **kwargs)
+
+    monkeypatch.setattr(dense_contrastive, "train_dense_encoder", spy)
+    entry = dict(
+        projection.merged_config([ROOT / "config" / "street.yaml"])["datasets"]["street_seg"]
+    )
+    entry["synthesis"] = {**entry["synthesis"], "n_samples": 20}
+    entry["embedding"] = {**entry["embedding"], "encoder": {"width": 4, "depth": 1, "steps": 2}}
+    before = torch.get_num_threads()
+    torch.set_num_threads(2)
+    try:
+        assert estimate.encoder_seconds(entry, steps=1, threads=1) > 0
+        assert seen == [1, 1] and torch.get_num_threads() == 2
+    finally:
+        torch.set_num_threads(before)
+
+
 @pytest.mark.parametrize("name", bench_main.available())
 def test_every_bench_answers_help(name, capsys):
     """`python -m spl_al.bench NAME --help` prints a usage line and exits 0 for every

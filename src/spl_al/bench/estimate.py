@@ -298,32 +298,26 @@ def first_batch_seconds(start: str, *, n_pool: int, dim: int, size: int, repeats
 DENSE_TEST_SHARE = 0.73
 
 
-def encoder_seconds(entry: dict, *, steps: int) -> float:
-    """Core seconds of one encoder job of the dataset's recipe: its steps at the
-    per-step time of ``steps`` timed steps (from the difference of a 1-step and a
-    (1 + ``steps``)-step training on random frames of the training pool's size, so that
-    the views index a pool as large as the run's), its fixed cost (the 1-step run less
-    a step), loading the dataset, and embedding every image (a dense encoder: its
-    features and the local depth features of every pixel)."""
+def _encoder_step_times(entry: dict, steps: int) -> tuple[float, float]:
+    """(seconds a step, fixed seconds of a training) of the dataset's encoder recipe:
+    the difference of a 1-step and a (1 + ``steps``)-step training on random frames of
+    the training pool's size (so that the views index a pool as large as the run's)."""
     # torch on demand (importing this module does not load it)
     from dataclasses import replace
 
     import numpy as np
-    import torch
 
-    from spl_al.dense_probe import local_depth_features
     from spl_al.training import contrastive as frames
     from spl_al.training import dense_contrastive as pixels
 
     dense = entry["task"] == "segmentation"
-    if dense:
-        encoder_class, config, train = (
-            pixels.DenseEncoder, pixels.DenseEncoderConfig, pixels.train_dense_encoder
-        )  # fmt: skip
-    else:
-        encoder_class, config, train = frames.Encoder, frames.EncoderConfig, frames.train_encoder
+    config, train = (
+        (pixels.DenseEncoderConfig, pixels.train_dense_encoder)
+        if dense
+        else (frames.EncoderConfig, frames.train_encoder)
+    )
     cfg = config.from_dict(encoder_recipe(entry))
-    n_pool, n_test, _ = split_sizes(entry)
+    n_pool, _, _ = split_sizes(entry)
     m = int(entry["variants"]["n"])
     shape = tuple((entry.get("synthesis") or {}).get("image_shape") or (64, 64))
     depth = np.random.default_rng(0).uniform(5, 50, size=(n_pool, 1 + m, *shape))
@@ -334,15 +328,46 @@ def encoder_seconds(entry: dict, *, steps: int) -> float:
         for k in (1, 1 + steps)
     ]
     step_s = max(seconds[1] - seconds[0], 0.0) / steps
-    fixed_s = max(seconds[0] - step_s, 0.0)
-    encoder = encoder_class(cfg).eval()
-    x = torch.randn(64 if dense else 512, 2, *shape)
-    with torch.no_grad():
-        started = time.perf_counter()
-        encoder(x)
-        if dense:
-            local_depth_features(depth[:64, 0], valid[:64, 0])
-        image_s = (time.perf_counter() - started) / len(x)
+    return step_s, max(seconds[0] - step_s, 0.0)
+
+
+def encoder_seconds(entry: dict, *, steps: int, threads: int = 1) -> float:
+    """Core seconds of one encoder job of the dataset's recipe, timed at the job's
+    ``threads`` torch threads (restored after): its steps at the per-step time of
+    ``steps`` timed steps (``_encoder_step_times``), its fixed cost, loading the
+    dataset, and embedding every image (a dense encoder: its features and the local
+    depth features of every pixel). Timed at torch's default of one thread per core, a
+    street encoder read 118 s a job on a 2-core Xeon where its ``-j2`` run's took
+    215-249 s at one thread (two such jobs at once: 0.65 s a step each, one alone 0.68)."""
+    # torch on demand (importing this module does not load it)
+    import numpy as np
+    import torch
+
+    from spl_al.dense_probe import local_depth_features
+    from spl_al.training import contrastive as frames
+    from spl_al.training import dense_contrastive as pixels
+
+    before = torch.get_num_threads()
+    torch.set_num_threads(int(threads))
+    try:
+        step_s, fixed_s = _encoder_step_times(entry, steps)
+        dense = entry["task"] == "segmentation"
+        config = pixels.DenseEncoderConfig if dense else frames.EncoderConfig
+        cfg = config.from_dict(encoder_recipe(entry))
+        shape = tuple((entry.get("synthesis") or {}).get("image_shape") or (64, 64))
+        encoder = (pixels.DenseEncoder if dense else frames.Encoder)(cfg).eval()
+        x = torch.randn(64 if dense else 512, 2, *shape)
+        depth = np.random.default_rng(0).uniform(5, 50, size=(64, *shape)).astype(np.float32)
+        with torch.no_grad():
+            started = time.perf_counter()
+            encoder(x)
+            if dense:
+                local_depth_features(depth, np.ones(depth.shape, dtype=bool))
+            image_s = (time.perf_counter() - started) / len(x)
+    finally:
+        torch.set_num_threads(before)
+    n_pool, n_test, _ = split_sizes(entry)
+    m = int(entry["variants"]["n"])
     # the job also reads the dataset: ~75 ns a pixel of every image (the Zen 3 EPYC's:
     # 1.7 s for real_cls's 1,100 x 5 images of 64 x 64)
     load_s = 7.5e-8 * (n_pool + n_test) * (1 + m) * shape[0] * shape[1]
@@ -403,7 +428,7 @@ def embedding_seconds(config: dict, dataset: str, *, steps: int = 10) -> dict:
     """Core seconds of a dataset's embedding framework (none without one) and its job
     count.
 
-    - Each encoder job: ``encoder_seconds``.
+    - Each encoder job: ``encoder_seconds``, at the job's threads.
     - The probe runs: each planned method's rounds at its own timed round
       (``probe_round_seconds``, ``dense_round_seconds`` for segmentation: the
       low-budget strategies cost 2-3x Random's), each cold-start arm's first batch per
@@ -413,7 +438,7 @@ def embedding_seconds(config: dict, dataset: str, *, steps: int = 10) -> dict:
     if not EMBEDDING.settings(entry):
         return {"encoder_s": 0.0, "probe_s": 0.0, "jobs": 0}
     n_encoders = len(encoder_seeds(entry))
-    per_encoder = encoder_seconds(entry, steps=steps)
+    per_encoder = encoder_seconds(entry, steps=steps, threads=int(config.get("threads_per_job", 1)))
     n_pool, n_test, _ = split_sizes(entry)
     dense = entry["task"] == "segmentation"
     runs = dataset_runs(config, dataset, EMBEDDING)
