@@ -236,7 +236,9 @@ def main(argv: list[str] | None = None) -> int:
     )
     parser.add_argument("embedding_results", type=Path, metavar="EMBEDDING_RESULTS")
     parser.add_argument("supervised_results", type=Path, metavar="SUPERVISED_RESULTS")
-    parser.add_argument("--datasets", nargs="*", default=["real_cls", "synth_cls"])
+    parser.add_argument(
+        "--datasets", nargs="*", default=["real_cls", "synth_cls", "street_seg", "street_pc"]
+    )
     parser.add_argument("--out", type=Path, help="folder for agreement_{dataset}.csv")
     parser.add_argument("--figures", type=Path, help="folder for agreement_{dataset}.png")
     args = parser.parse_args(argv)
