@@ -154,6 +154,11 @@ class DenseProbe:
         self._bias = (b - w @ self._mean).astype(np.float32)
         return self
 
+    @property
+    def iterations(self) -> int:
+        """The solver's iterations in the last fit (0 when it had one class)."""
+        return 0 if self._model is None else int(np.max(self._model.n_iter_))
+
     def logits(self, x) -> np.ndarray:
         """(n, k) float32 logits of the k classes seen in the fit (in class order) for
         pixel features ``x`` (n, d)."""
