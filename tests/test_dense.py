@@ -376,3 +376,28 @@ def test_the_dense_bench_probes_sampled_pixels_as_the_rounds_fit_them(street):
     )
     few = sample_units(data.valid, 4, rng)
     assert probe_miou(data, feats, labeled, held_out, units=few, **kw) != full
+
+
+def test_the_probes_solver_reaches_scikit_learns_optimum():
+    """fit_multinomial minimises LogisticRegression's objective (L2, intercept, sample
+    weights) with its solver settings: the same coefficients from the same start, in
+    the same iterations, and from a warm start the same optimum in fewer."""
+    from scipy.special import softmax
+    from sklearn.linear_model import LogisticRegression
+
+    from spl_al.multinomial import fit_multinomial
+
+    rng = np.random.default_rng(3)
+    x = rng.normal(size=(2000, 6))
+    y = np.argmax(x[:, :4] + 0.7 * rng.normal(size=(2000, 4)), axis=1)
+    w = class_weights(y, 4, 0.5)[y]
+    ref = LogisticRegression(C=0.5, max_iter=500, tol=1e-6).fit(x, y, sample_weight=w)
+    coef, iterations = fit_multinomial(x, y, w, c=0.5, tol=1e-6)
+    np.testing.assert_allclose(coef[:, :-1], ref.coef_, atol=1e-6)
+    np.testing.assert_allclose(coef[:, -1], ref.intercept_, atol=1e-6)
+    assert iterations == ref.n_iter_[0]
+    again, fewer = fit_multinomial(x, y, w, c=0.5, tol=1e-6, coef=coef + 0.01)
+    # the same function (a shift common to every intercept changes no probability)
+    logits = x @ again[:, :-1].T + again[:, -1]
+    np.testing.assert_allclose(softmax(logits, axis=1), ref.predict_proba(x), rtol=0, atol=1e-4)
+    assert fewer < iterations

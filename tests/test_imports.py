@@ -38,7 +38,7 @@ LAYERS: list[tuple[str, list[str]]] = [
             "spl_al.dense_probe",
         ],
     ),
-    ("learning", ["spl_al.strategies", "spl_al.training"]),
+    ("learning", ["spl_al.strategies", "spl_al.training", "spl_al.multinomial"]),
     ("models", ["spl_al.models"]),
     ("data", ["spl_al.data"]),
     ("physics and geometry", ["spl_al.photon", "spl_al.scenes"]),

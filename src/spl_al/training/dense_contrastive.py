@@ -335,7 +335,8 @@ def train_dense_encoder(
             depth_m[:, 0], np.asarray(valid)[:, 0], cfg.region_cell, cfg.region_depth_step
         )
         regions = torch.from_numpy(ids).to(dev)
-    encoder.to(dev).train()
+    # channels-last: oneDNN's convolutions run faster on it (docs/benchmarks.md)
+    encoder.to(dev, memory_format=torch.channels_last).train()
     batch = min(int(cfg.batch_size), n)
     progress = ProgressLog(log)
     progress.line(
@@ -349,7 +350,7 @@ def train_dense_encoder(
         )
     finally:
         progress.close()
-    encoder.eval().to("cpu")
+    encoder.eval().to("cpu", memory_format=torch.contiguous_format)
     record = {
         "steps": int(cfg.steps),
         "scans_per_step": batch,
@@ -397,7 +398,8 @@ def _fit(encoder, x_all, regions, cfg: DenseEncoderConfig, *, gen, batch, progre
                 )
                 if rows.numel() < 2:
                     continue
-            feats = encoder(torch.cat([view_a, view_b]))  # (2B, d, H, width)
+            views = torch.cat([view_a, view_b]).contiguous(memory_format=torch.channels_last)
+            feats = encoder(views)  # (2B, d, H, width)
             b = view_a.shape[0]
             if regions is None:
                 flat = feats.flatten(2)  # (2B, d, H * width)
@@ -444,14 +446,14 @@ def dense_features(
     """fp32 features (n, H, W, d) of every pixel of (n, H, W) scans: the last decoder
     map, and the next ``levels - 1`` coarser ones (``DenseEncoder.levels``)."""
     dev = resolve_device(device)
-    encoder.to(dev).eval()
+    encoder.to(dev, memory_format=torch.channels_last).eval()
     depth_m = np.asarray(depth_m)
     out = []
     for s in range(0, len(depth_m), batch_size):
         x = model_input(encoder, depth_m[s : s + batch_size], np.asarray(valid[s : s + batch_size]))
-        f = encoder.levels(x.to(dev), levels)
+        f = encoder.levels(x.to(dev).contiguous(memory_format=torch.channels_last), levels)
         out.append(f.permute(0, 2, 3, 1).float().cpu().numpy())
-    encoder.to("cpu")
+    encoder.to("cpu", memory_format=torch.contiguous_format)
     if not out:
         return np.zeros((0, *depth_m.shape[1:], encoder.feature_dim), dtype=np.float32)
     return np.concatenate(out).astype(np.float32)
