@@ -13,7 +13,7 @@ _SRC = Path(workflow.basedir) / "src"
 if (_SRC / "spl_al").is_dir():
     sys.path.insert(0, str(_SRC))
 
-from spl_al.config import check_config, drop_removed, select_datasets
+from spl_al.config import check_config, drop_removed, select_datasets, share_embeddings
 
 min_version("9.0")
 
@@ -34,6 +34,8 @@ drop_removed(config)
 try:
     INHERITED = select_datasets(config, OVERRIDES)
     check_config(config, Path(workflow.basedir) / "config" / "schema.yaml")
+    # dataset -> the dataset whose embedding encoders and runs it reads
+    SHARED_EMBEDDING = share_embeddings(config)
 except ValueError as err:
     sys.exit(f"Error: {err}")
 

@@ -8,7 +8,13 @@ import pytest
 import yaml
 from snakemake.utils import update_config
 
-from spl_al.config import check_config, drop_removed, real_captures_dir, select_datasets
+from spl_al.config import (
+    check_config,
+    drop_removed,
+    real_captures_dir,
+    select_datasets,
+    share_embeddings,
+)
 from spl_al.experiment.plan import check_plan
 from spl_al.models import build_model
 from spl_al.training import TrainConfig
@@ -86,8 +92,9 @@ def test_paper_config_trains_with_the_papers_recipe_whatever_the_defaults():
         assert TrainConfig.from_dict(train["fit"]) == TrainConfig.paper()
 
 
-def _merged(*names: str) -> dict:
-    """config/config.yaml with the named override files merged on top, as Snakemake does."""
+def _merged(*names: str, share: bool = True) -> dict:
+    """config/config.yaml with the named override files merged on top, as Snakemake does
+    (and the Snakefile resolves shared embeddings)."""
     root = Path(__file__).resolve().parents[1] / "config"
     config = yaml.safe_load((root / "config.yaml").read_text())
     user: dict = {}
@@ -96,6 +103,8 @@ def _merged(*names: str) -> dict:
     update_config(config, user)
     drop_removed(config)
     select_datasets(config, user)
+    if share:
+        share_embeddings(config)
     return config
 
 
@@ -402,8 +411,9 @@ def test_the_default_run_s_embedding_framework_has_12_encoders_of_10_seeds():
 
 def test_the_street_config_s_embedding_framework_has_12_encoders_and_100_seeds():
     """street_seg and street_pc in config/street.yaml's embedding framework: at least
-    12 encoders each (street_pc's its own), at least 100 run seeds, the paper's five
-    baselines, the low-budget ones and DropQuery, every table kind."""
+    12 encoders each (street_pc's street_seg's: the same scans), at least 100 run
+    seeds, the paper's five baselines, the low-budget ones and DropQuery, every table
+    kind."""
     from spl_al.experiment.encoders import encoder_seeds
     from spl_al.experiment.plan import budget_families, dataset_runs
 
@@ -421,7 +431,8 @@ def test_the_street_config_s_embedding_framework_has_12_encoders_and_100_seeds()
         assert "dropquery" in families["paper"]
         experiments = entry["embedding"]["experiments"]
         assert {"budget", "levels", "ablation", "sensitivity"} <= set(experiments)
-    assert not set(seeds["street_seg"]) & set(seeds["street_pc"])  # independent draws
+    assert seeds["street_seg"] == seeds["street_pc"]  # one experiment, shared
+    assert config["datasets"]["street_pc"]["embedding"]["shared"] == "street_seg"
 
 
 def test_dropquery_on_segmentation_runs_in_the_embedding_framework_alone():
@@ -526,3 +537,28 @@ def test_a_sweep_point_keeps_the_dataset_s_parameters_but_the_one_it_varies():
     assert dataset_method(config, "street_seg", "duis_alpha0.25").params["alpha"] == 0.25
     assert dataset_method(config, "street_seg", "duis_ncand40").params["n_cand"] == 40
     assert dataset_method(_merged(), "real_cls", "duis_alpha0.25").params["n_cand"] == 160
+
+
+def test_a_shared_embedding_is_its_sources_block_and_refused_when_the_runs_differ():
+    """street_pc's embedding: {shared: street_seg} resolves to street_seg's block (the
+    same encoders and runs); shared beside other keys, a source outside the run, or a
+    dataset whose runs would read another budget is refused in one sentence."""
+    config = _merged("street.yaml", share=False)
+    assert share_embeddings(config) == {"street_pc": "street_seg"}
+    seg, pc = config["datasets"]["street_seg"], config["datasets"]["street_pc"]
+    assert pc["embedding"] == {**seg["embedding"], "shared": "street_seg"}
+    check_plan(config)
+    assert share_embeddings(config) == {"street_pc": "street_seg"}  # resolved: unchanged
+
+    def refused(change, match):
+        config = _merged("street.yaml", share=False)
+        change(config["datasets"])
+        with pytest.raises(ValueError, match=match):
+            share_embeddings(config)
+
+    def beside(d):
+        d["street_pc"]["embedding"]["encoder"] = {"steps": 10}
+
+    refused(beside, r"'datasets.street_pc.embedding' sets shared and encoder; expected shared")
+    refused(lambda d: d.pop("street_seg"), r"names 'street_seg'; expected another dataset")
+    refused(lambda d: d["street_pc"]["al"].update(initial=5), r"'datasets.street_pc.al' differs")

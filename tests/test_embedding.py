@@ -434,3 +434,26 @@ def test_one_thread_reaches_the_libraries_a_round_loads_later():
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
     n_pools, most = map(int, out.stdout.split())
     assert n_pools >= 2 and most == 1
+
+
+def test_shared_runs_relabel_the_sources_runs_only_over_the_same_scans(tmp_path):
+    """embedding: {shared: SOURCE}: a dataset of the same scans takes the source's
+    records under its own name; another dataset's file is refused, nothing written."""
+    from spl_al.atomic import write_json
+    from spl_al.experiment.embedding_steps import shared_runs
+
+    source, _ = _dataset(tmp_path, name="source.npz")
+    same, _ = _dataset(tmp_path, name="same.npz")
+    runs = tmp_path / "source_runs.json"
+    write_json([{"dataset": "src", "seed": 1, "round": 0, "value": 0.5}], runs)
+    out = tmp_path / "runs.json"
+    shared_runs(runs, same, source, dataset="pc", source="src", out_path=out)
+    assert json.loads(out.read_text()) == [
+        {"dataset": "pc", "seed": 1, "round": 0, "value": 0.5, "runs_of": "src"}
+    ]
+    depth, _, _ = shapes_groups(30, n_groups=3, seed=1)
+    other, _ = _dataset(tmp_path, test_depth=depth[N_TRAIN:, 0] + 1.0, name="other.npz")
+    refused = tmp_path / "refused.json"
+    with pytest.raises(ValueError, match=r"its 'depth' is not src's .* cannot share src's"):
+        shared_runs(runs, other, source, dataset="pc", source="src", out_path=refused)
+    assert not refused.exists()

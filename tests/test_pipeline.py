@@ -383,21 +383,21 @@ CHANGES = {
         ["street_pc/*/seed1/*", "street_pc/*/seed2/*", "*/data/*", "real_cls/*", "street_seg/*"],
     ),
     "a dataset's method parameters": (
-        "datasets: {street_pc: {method_params: {duis: {n_cand: 4}}}}",
-        ["street_pc/duis/seed1/round1/labeled.json", "street_pc/tables/budget.csv"],
+        # (street_pc's would be refused: it shares street_seg's embedding runs)
+        "datasets: {real_cls: {method_params: {duis: {n_cand: 8}}}}",
+        ["real_cls/duis/seed1/round1/labeled.json", "real_cls/tables/budget.csv"],
         [
             "*/data/*",
             "*/initial/*",
             "*/duis/*/round0/*",
             "*/random/*",
-            "real_cls/*",
-            "street_seg/*",
+            "street_*",
         ],
     ),
     "a dataset's batch": (
-        "datasets: {street_pc: {al: {batch: 2}}}",
-        ["street_pc/random/seed1/round1/labeled.json"],
-        ["*/round0/*", "*/initial/*", "*/data/*", "real_cls/*", "street_seg/*"],
+        "datasets: {real_cls: {al: {batch: 5}}}",
+        ["real_cls/random/seed1/round1/labeled.json"],
+        ["*/round0/*", "*/initial/*", "*/data/*", "street_*"],
     ),
     "the embedding framework's seeds": (
         # Margin runs in the budget experiment alone; Random's seeds stay (the cold
@@ -654,21 +654,28 @@ def test_embedding_framework_runs_on_the_same_round0_sets(ci_results):
     np.testing.assert_array_equal(scores["features"], train[scores["unlabeled_idx"], 0])
 
 
-@pytest.mark.parametrize(("dataset", "first_encoder"), [("street_seg", 0), ("street_pc", 3)])
-def test_segmentation_runs_in_the_embedding_framework_over_encoders(
-    ci_results, dataset, first_encoder
-):
+@pytest.mark.parametrize("dataset", ["street_seg", "street_pc"])
+def test_segmentation_runs_in_the_embedding_framework_over_encoders(ci_results, dataset):
     """config/ci.yaml's street scans in the embedding framework: dense encoders (one
     per run seed), mIoU records of the per-pixel probe, every table kind and the claims
-    with the encoder as the unit."""
+    with the encoder as the unit. street_pc's points are street_seg's scans' valid
+    pixels (embedding: {shared: street_seg}): it reads street_seg's encoders and runs,
+    the same records under its own name."""
     root = ci_results / dataset / "embedding"
-    card = json.loads((root / "encoders" / f"seed{first_encoder}" / "card.json").read_text())
+    source = ci_results / "street_seg" / "embedding"
+    card = json.loads((source / "encoders" / "seed0" / "card.json").read_text())
     assert card["encoder"]["depth"] == 2 and card["units_per_scan"] > 0  # the dense recipe
     runs = json.loads((root / "runs" / "dropquery.json").read_text())
     assert {r["metric"] for r in runs} == {"miou"}
-    assert {(r["seed"], r["encoder"]) for r in runs} == {
-        (s, first_encoder + s - 1) for s in (1, 2, 3)
-    }
+    assert {(r["seed"], r["encoder"]) for r in runs} == {(s, s - 1) for s in (1, 2, 3)}
+    if dataset == "street_pc":
+        assert not (root / "encoders").exists()
+        assert {(r["dataset"], r["runs_of"]) for r in runs} == {("street_pc", "street_seg")}
+        own = json.loads((source / "runs" / "dropquery.json").read_text())
+        assert [{**r, "dataset": "street_seg"} for r in own] == [
+            {k: v for k, v in {**r, "dataset": "street_seg"}.items() if k != "runs_of"}
+            for r in runs
+        ]
     for name in ("budget", "levels", "ablation", "sensitivity"):
         caption = (root / "tables" / f"{name}.md").read_text().splitlines()[0]
         assert "embedding framework" in caption and "3 encoders" in caption

@@ -19,7 +19,7 @@ rule encoder:
     benchmark:
         f"{EMBEDDING_BENCHMARKS}/encoder_seed{{eseed}}.tsv"
     wildcard_constraints:
-        dataset=one_of(EMBEDDED),
+        dataset=one_of(OWN_EMBEDDED),
         eseed=r"\d+",
     conda:
         "../envs/spl-al.yaml"
@@ -53,7 +53,7 @@ rule probe_runs:
     benchmark:
         f"{EMBEDDING_BENCHMARKS}/{{method}}.tsv"
     wildcard_constraints:
-        dataset=one_of(EMBEDDED),
+        dataset=one_of(OWN_EMBEDDED),
     conda:
         "../envs/spl-al.yaml"
     threads: 1
@@ -75,6 +75,32 @@ rule probe_runs:
         files=job_files,
     shell:
         python_job("probe_runs")
+
+
+# A dataset that shares another's embedding framework (`embedding: {shared: SOURCE}`):
+# each method's runs are the source's, relabelled, once the data files match.
+rule shared_probe_runs:
+    input:
+        unpack(shared_runs_inputs),
+    output:
+        f"{EMBEDDING}/runs/{{method}}.json",
+    log:
+        f"{EMBEDDING_LOGS}/{{method}}.log",
+    benchmark:
+        f"{EMBEDDING_BENCHMARKS}/{{method}}.tsv"
+    wildcard_constraints:
+        dataset=one_of(SHARED_EMBEDDING),
+    conda:
+        "../envs/spl-al.yaml"
+    threads: 1
+    resources:
+        mem_mb=res("shared_probe_runs", "mem_mb", 1000),
+        runtime=res("shared_probe_runs", "runtime", 5),
+    params:
+        job=job_params(source=lambda w: SHARED_EMBEDDING[w.dataset]),
+        files=job_files,
+    shell:
+        python_job("shared_runs")
 
 
 use rule table as embedding_table with:

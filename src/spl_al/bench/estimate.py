@@ -34,7 +34,7 @@ from spl_al.bench.projection import merged_config, method_variants, model_case, 
 from spl_al.bench.timing import markdown_table
 from spl_al.bench.training import measure
 from spl_al.blas_threads import one_thread
-from spl_al.config import dataset_precision
+from spl_al.config import SHARED, dataset_precision
 from spl_al.data import Dataset
 from spl_al.data.sources import is_synthesised
 from spl_al.data.variants import generate_variants
@@ -427,21 +427,19 @@ def dense_round_seconds(
 
 
 def _gradient_seconds(n: int, d: int, k: int, repeats: int = 5) -> float:
-    """Seconds of one loss-and-gradient evaluation of a weighted multinomial logistic
-    regression on n x d float64 features and k classes, an L-BFGS iteration's work."""
+    """Seconds of one loss-and-gradient evaluation of the dense probe's solver
+    (``spl_al.multinomial``) on n x d features and k classes, an L-BFGS iteration's
+    work."""
     import numpy as np
 
+    from spl_al.multinomial import loss_gradient, make_problem
+
     rng = np.random.default_rng(0)
-    x, w = rng.normal(size=(n, d)), rng.normal(size=(d, k)) * 0.1
-    onehot = np.eye(k)[rng.integers(0, k, n)]
-    weight = rng.random(n)
+    problem = make_problem(rng.normal(size=(n, d)), np.arange(n) % k, rng.random(n), c=1.0)
+    coef = (rng.normal(size=(k, d + 1)) * 0.1).ravel(order="F")
     started = time.perf_counter()
     for _ in range(repeats):
-        z = x @ w
-        z -= z.max(axis=1, keepdims=True)
-        p = np.exp(z)
-        p /= p.sum(axis=1, keepdims=True)
-        _ = x.T @ (weight[:, None] * (p - onehot)), float(weight @ np.log(p[onehot > 0]))
+        loss_gradient(coef, problem)
     return (time.perf_counter() - started) / repeats
 
 
@@ -467,11 +465,15 @@ def embedding_seconds(config: dict, dataset: str, *, steps: int = 10) -> dict:
     entry = config["datasets"][dataset]
     if not EMBEDDING.settings(entry):
         return {"encoder_s": 0.0, "probe_s": 0.0, "jobs": 0}
+    runs = dataset_runs(config, dataset, EMBEDDING)
+    report_s = REPORT_S_PER_RUN * len(runs)  # the paired statistics over every seed
+    if EMBEDDING.settings(entry).get(SHARED):  # another dataset's encoders and runs
+        methods = {method for method, _seed in runs}
+        return {"encoder_s": 0.0, "probe_s": report_s, "jobs": len(methods) + REPORT_JOBS}
     n_encoders = len(encoder_seeds(entry))
     per_encoder = encoder_seconds(entry, steps=steps, threads=int(config.get("threads_per_job", 1)))
     n_pool, n_test, _ = split_sizes(entry)
     dense = entry["task"] == "segmentation"
-    runs = dataset_runs(config, dataset, EMBEDDING)
     per_method: dict[str, int] = {}
     for (method, _seed), rounds in runs.items():
         per_method[method] = per_method.get(method, 0) + int(rounds)
@@ -498,7 +500,6 @@ def embedding_seconds(config: dict, dataset: str, *, steps: int = 10) -> dict:
         )
         for start, count in starts.items()
     )
-    report_s = REPORT_S_PER_RUN * len(runs)  # the paired statistics over every seed
     return {
         "encoder_s": n_encoders * per_encoder,
         "probe_s": probe_s + report_s,

@@ -34,7 +34,7 @@ import yaml
 
 from spl_al.bench.timing import markdown_table
 from spl_al.bench.training import case_model, measure, random_data
-from spl_al.config import drop_removed, select_datasets
+from spl_al.config import drop_removed, select_datasets, share_embeddings
 from spl_al.training import TrainConfig
 
 ROOT = Path(__file__).resolve().parents[3]
@@ -59,6 +59,7 @@ def merged_config(paths: list[Path]) -> dict:
         update(user, override)
     config = drop_removed(config)
     select_datasets(config, user)  # only_datasets: exactly the datasets it lists
+    share_embeddings(config)  # embedding: {shared: SOURCE}, as the Snakefile resolves it
     return config
 
 

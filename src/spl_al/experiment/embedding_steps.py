@@ -263,6 +263,31 @@ def probe_runs(dataset_path, encoders: dict, *, runs: ProbeRuns, out_path, log=N
     return records
 
 
+def shared_runs(runs_path, dataset_path, source_path, *, dataset: str, source: str, out_path):
+    """One method's runs of ``source``'s embedding framework as ``dataset``'s
+    (config ``embedding: {shared: SOURCE}``): its records with ``dataset`` in place of
+    ``source`` and ``runs_of: source`` beside it, written to ``out_path``. Refused
+    (ValueError, nothing written) unless the two datasets' files hold the same scans,
+    split and variants: then the experiment is the same, and its runs serve both."""
+    with np.load(dataset_path, allow_pickle=False) as a, np.load(source_path) as b:
+        for key in sorted(set(a.files) | set(b.files)):
+            if key == "meta_json":  # names the dataset; the arrays are what runs read
+                continue
+            if (
+                key not in a.files
+                or key not in b.files
+                or not np.array_equal(a[key], b[key], equal_nan=a[key].dtype.kind == "f")
+            ):
+                raise ValueError(
+                    f"{dataset_path}: its '{key}' is not {source}'s ({source_path}), so "
+                    f"{dataset} cannot share {source}'s embedding runs; expected the same "
+                    "scans, split and variants, or an embedding block of its own."
+                )
+    records = [{**r, "dataset": dataset, "runs_of": source} for r in read_json(runs_path)]
+    write_json(records, out_path)
+    return records
+
+
 class _LinearRounds:
     """A classification run's learner: ``LinearProbe`` on the groups' embeddings,
     accuracy on the test split."""

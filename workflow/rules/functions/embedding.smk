@@ -9,6 +9,9 @@ EMBEDDED = [
     for d in DATASETS
     if EMBEDDING_FRAMEWORK.enabled(config["datasets"][d]) or selects_on_embedding(d)
 ]
+# Those that draw their own encoders and runs; the others share a dataset's
+# (`embedding: {shared: SOURCE}`, SHARED_EMBEDDING: the Snakefile's).
+OWN_EMBEDDED = [d for d in EMBEDDED if d not in SHARED_EMBEDDING]
 # The framework's folders, with the dataset a wildcard: outputs, logs, benchmarks.
 EMBEDDING = EMBEDDING_FRAMEWORK.folder(RESULTS, "{dataset}")
 EMBEDDING_LOGS = EMBEDDING_FRAMEWORK.folder(f"{RESULTS}/logs", "{dataset}")
@@ -20,10 +23,10 @@ def embedding_entry(dataset):
 
 
 def encoder_file(dataset, eseed, name):
-    """One of encoder ``eseed``'s files: encoder.pt, card.json or embeddings.npz."""
-    return layout.encoder_file(
-        EMBEDDING_FRAMEWORK.folder(RESULTS, dataset), eseed, name
-    )
+    """One of encoder ``eseed``'s files: encoder.pt, card.json or embeddings.npz (a
+    dataset that shares another's embedding framework reads that one's encoders)."""
+    owner = SHARED_EMBEDDING.get(dataset, dataset)
+    return layout.encoder_file(EMBEDDING_FRAMEWORK.folder(RESULTS, owner), eseed, name)
 
 
 @functools.cache
@@ -78,3 +81,14 @@ def embedding_outputs(dataset):
         encoder_file(dataset, e, "card.json")
         for e in encoder_seeds(config["datasets"][dataset])
     ]
+
+
+def shared_runs_inputs(wildcards):
+    """The source's runs file of the method, and both datasets' files (the job checks
+    that they hold the same scans)."""
+    source = SHARED_EMBEDDING[wildcards.dataset]
+    return {
+        "runs": f"{EMBEDDING_FRAMEWORK.folder(RESULTS, source)}/runs/{wildcards.method}.json",
+        "data": layout.data_file(RESULTS, wildcards.dataset),
+        "source_data": layout.data_file(RESULTS, source),
+    }
