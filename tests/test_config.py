@@ -234,7 +234,7 @@ def test_the_default_run_takes_the_steps_it_took_before_the_policy():
 def test_training_notes_name_a_warm_start():
     from spl_al.config import training_notes
 
-    config = _merged("street.yaml")
+    config = _merged("decisive-street_seg.yaml")
     config["datasets"]["street_seg"]["train"]["warm_start"] = None
     assert training_notes(config, "street_seg") == []
     config["datasets"]["street_seg"]["train"]["warm_start"] = {"min_steps": 150}
@@ -440,7 +440,8 @@ def test_dropquery_on_segmentation_runs_in_the_embedding_framework_alone():
     dense probe gives it one."""
     config = _merged("street.yaml")
     check_plan(config)  # the street embedding framework runs dropquery
-    config["datasets"]["street_seg"]["experiments"]["budget"]["methods"].append("dropquery")
+    budget = {"methods": ["random", "dropquery"], "seeds": [1], "rounds": 2}
+    config["datasets"]["street_seg"]["experiments"]["budget"] = budget
     with pytest.raises(ValueError, match=r"'methods\.dropquery'.*street_seg is a segmentation"):
         check_plan(config)
 
