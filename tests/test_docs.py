@@ -471,6 +471,20 @@ def test_the_readme_answer_is_one_table_of_both_frameworks(tmp_path, capsys):
     both = readme.read_text()
     assert "| embedding: real_cls (stand-in), 12 encoders | embedding: street_seg, 12" in both
     assert "**inconclusive**: −0.3 [−1.0, +0.4] vs Coreset" in both
+    # street_pc shares street_seg's embedding runs (its claims the same): one column
+    _fake_claims(
+        street / "street_pc" / "embedding" / "tables",
+        "encoder",
+        12,
+        [("duis_best_aubc", "inconclusive", "duis - coreset", -0.3, -1.0, 0.4, 5)],
+    )
+    (street / "config.yaml").write_text(
+        "datasets: {street_pc: {embedding: {shared: street_seg}}}\n"
+    )
+    assert answer.main([str(emb), str(sup), *more, "--readme", str(readme)]) == 0
+    both = readme.read_text()
+    assert "| embedding: street_seg and street_pc, 12 encoders |" in both
+    assert "embedding: street_pc" not in both
     # nothing to read: one sentence, the README as it was
     assert answer.main([str(tmp_path / "a"), str(tmp_path / "b"), "--readme", str(readme)]) == 1
     assert "holds claims of real_cls or synth_cls or street_seg" in capsys.readouterr().err

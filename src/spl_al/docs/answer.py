@@ -20,7 +20,7 @@ import sys
 from pathlib import Path
 
 from spl_al.atomic import atomic_write_text
-from spl_al.config import is_standin
+from spl_al.config import SHARED, is_standin
 from spl_al.docs.markers import replace_block
 from spl_al.frameworks import EMBEDDING, SUPERVISED
 from spl_al.layout import table_file
@@ -79,6 +79,18 @@ def _standin(results: Path, dataset: str, framework) -> bool:
     return entry.get("source") == "synthetic" or is_standin(entry)
 
 
+def _shared_from(results: Path, dataset: str) -> str | None:
+    """The dataset whose embedding runs ``dataset`` shares in the run's effective
+    config (``embedding: {shared: SOURCE}``), or None: its claims are the source's."""
+    path = Path(results) / "config.yaml"
+    if not path.is_file():
+        return None
+    import yaml
+
+    entry = ((yaml.safe_load(path.read_text()) or {}).get("datasets") or {}).get(dataset) or {}
+    return (entry.get("embedding") or {}).get(SHARED)
+
+
 def _units(rows: dict[str, dict]) -> str:
     """'12 encoders' or '24 seeds': the units the run's claims count."""
     if not rows:
@@ -109,6 +121,12 @@ def cell(row: dict | None) -> str:
     return text
 
 
+def _column_name(results: Path, kind, datasets: list[str]) -> str:
+    """'street_seg and street_pc (stand-in)': the datasets one column answers for."""
+    name = " and ".join(datasets)
+    return f"{name} (stand-in)" if _standin(results, datasets[0], kind) else name
+
+
 def answer_table(embedding_results, supervised_results: Path) -> str:
     """The answer block: the generated-by line, the table and its legend.
 
@@ -120,12 +138,20 @@ def answer_table(embedding_results, supervised_results: Path) -> str:
     folders = [Path(f) for f in folders]
     columns = []
     for kind, runs in ((EMBEDDING, folders), (SUPERVISED, [Path(supervised_results)])):
+        names: dict[str, list[str]] = {}  # dataset -> the datasets its column answers for
         for dataset in DATASETS:
             found = [(r, rows) for r in runs if (rows := _claims(r, dataset, kind))]
             results, rows = found[0] if found else (None, {})
-            if rows:
-                name = f"{dataset} (stand-in)" if _standin(results, dataset, kind) else dataset
-                columns.append((f"{kind.name}: {name}, {_units(rows)}", rows))
+            source = _shared_from(results, dataset) if rows and kind is EMBEDDING else None
+            if source in names:  # the same runs as the source's column: named there
+                names[source].append(dataset)
+            elif rows:
+                names[dataset] = [dataset]
+                columns.append((results, kind, names[dataset], rows))
+    columns = [
+        (f"{kind.name}: {_column_name(results, kind, datasets)}, {_units(rows)}", rows)
+        for results, kind, datasets, rows in columns
+    ]
     if not columns:
         raise ValueError(
             f"none of {', '.join(map(str, folders))} nor {supervised_results} holds claims of "
