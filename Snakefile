@@ -13,7 +13,8 @@ _SRC = Path(workflow.basedir) / "src"
 if (_SRC / "spl_al").is_dir():
     sys.path.insert(0, str(_SRC))
 
-from spl_al.config import check_config, drop_removed, select_datasets, share_embeddings
+from spl_al.config import check_config, drop_removed, select_datasets
+from spl_al.experiment.shared_embedding import share_embeddings
 
 min_version("9.0")
 

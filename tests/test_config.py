@@ -8,14 +8,9 @@ import pytest
 import yaml
 from snakemake.utils import update_config
 
-from spl_al.config import (
-    check_config,
-    drop_removed,
-    real_captures_dir,
-    select_datasets,
-    share_embeddings,
-)
+from spl_al.config import check_config, drop_removed, real_captures_dir, select_datasets
 from spl_al.experiment.plan import check_plan
+from spl_al.experiment.shared_embedding import share_embeddings
 from spl_al.models import build_model
 from spl_al.training import TrainConfig
 

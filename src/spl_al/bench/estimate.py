@@ -34,7 +34,7 @@ from spl_al.bench.projection import merged_config, method_variants, model_case, 
 from spl_al.bench.timing import markdown_table
 from spl_al.bench.training import measure
 from spl_al.blas_threads import one_thread
-from spl_al.config import SHARED, dataset_precision
+from spl_al.config import dataset_precision
 from spl_al.data import Dataset
 from spl_al.data.sources import is_synthesised
 from spl_al.data.variants import generate_variants
@@ -42,8 +42,10 @@ from spl_al.experiment import dense_embedding
 from spl_al.experiment.data_steps import make_dataset
 from spl_al.experiment.encoders import encoder_recipe, encoder_seeds
 from spl_al.experiment.plan import dataset_method, dataset_runs, labeled_at
+from spl_al.experiment.shared_embedding import SHARED
 from spl_al.frameworks import EMBEDDING
 from spl_al.linear_probe import LinearProbe, dropout_head, probe_inputs
+from spl_al.multinomial import loss_gradient, make_problem
 from spl_al.pool import Pool
 from spl_al.strategies import GROUP_NEEDS, get
 from spl_al.strategies import get as get_strategy
@@ -431,8 +433,6 @@ def _gradient_seconds(n: int, d: int, k: int, repeats: int = 5) -> float:
     (``spl_al.multinomial``) on n x d features and k classes, an L-BFGS iteration's
     work."""
     import numpy as np
-
-    from spl_al.multinomial import loss_gradient, make_problem
 
     rng = np.random.default_rng(0)
     problem = make_problem(rng.normal(size=(n, d)), np.arange(n) % k, rng.random(n), c=1.0)

@@ -34,7 +34,8 @@ import yaml
 
 from spl_al.bench.timing import markdown_table
 from spl_al.bench.training import case_model, measure, random_data
-from spl_al.config import drop_removed, select_datasets, share_embeddings
+from spl_al.config import drop_removed, select_datasets
+from spl_al.experiment.shared_embedding import share_embeddings
 from spl_al.training import TrainConfig
 
 ROOT = Path(__file__).resolve().parents[3]

@@ -20,8 +20,9 @@ import sys
 from pathlib import Path
 
 from spl_al.atomic import atomic_write_text
-from spl_al.config import SHARED, is_standin
+from spl_al.config import is_standin
 from spl_al.docs.markers import replace_block
+from spl_al.experiment.shared_embedding import SHARED
 from spl_al.frameworks import EMBEDDING, SUPERVISED
 from spl_al.layout import table_file
 from spl_al.report.display import method_label
@@ -88,7 +89,7 @@ def _shared_from(results: Path, dataset: str) -> str | None:
     import yaml
 
     entry = ((yaml.safe_load(path.read_text()) or {}).get("datasets") or {}).get(dataset) or {}
-    return (entry.get("embedding") or {}).get(SHARED)
+    return (entry.get(EMBEDDING.block) or {}).get(SHARED)
 
 
 def _units(rows: dict[str, dict]) -> str:
