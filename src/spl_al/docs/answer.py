@@ -63,6 +63,17 @@ def _claims(results: Path, dataset: str, framework) -> dict[str, dict]:
     return {row["claim_id"]: row for row in read_rows(path)} if path.is_file() else {}
 
 
+def _run_entry(results: Path, dataset: str) -> dict:
+    """The dataset's entry in the run's effective config (``RESULTS/config.yaml``; {}
+    without one)."""
+    path = Path(results) / "config.yaml"
+    if not path.is_file():
+        return {}
+    import yaml
+
+    return ((yaml.safe_load(path.read_text()) or {}).get("datasets") or {}).get(dataset) or {}
+
+
 def _standin(results: Path, dataset: str, framework) -> bool:
     """Whether the run's dataset is a procedural stand-in: synthesised (``source:
     synthetic`` in the run's effective config, ``RESULTS/config.yaml``), or standing in
@@ -71,25 +82,14 @@ def _standin(results: Path, dataset: str, framework) -> bool:
     summary = Path(table_file(framework.folder(results, dataset), "summary.json"))
     if summary.is_file() and json.loads(summary.read_text()).get("synthetic_standin"):
         return True
-    path = Path(results) / "config.yaml"
-    if not path.is_file():
-        return False
-    import yaml
-
-    entry = ((yaml.safe_load(path.read_text()) or {}).get("datasets") or {}).get(dataset) or {}
-    return entry.get("source") == "synthetic" or is_standin(entry)
+    entry = _run_entry(results, dataset)
+    return bool(entry) and (entry.get("source") == "synthetic" or is_standin(entry))
 
 
 def _shared_from(results: Path, dataset: str) -> str | None:
     """The dataset whose embedding runs ``dataset`` shares in the run's effective
     config (``embedding: {shared: SOURCE}``), or None: its claims are the source's."""
-    path = Path(results) / "config.yaml"
-    if not path.is_file():
-        return None
-    import yaml
-
-    entry = ((yaml.safe_load(path.read_text()) or {}).get("datasets") or {}).get(dataset) or {}
-    return (entry.get(EMBEDDING.block) or {}).get(SHARED)
+    return (_run_entry(results, dataset).get(EMBEDDING.block) or {}).get(SHARED)
 
 
 def _units(rows: dict[str, dict]) -> str:

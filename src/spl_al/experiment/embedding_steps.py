@@ -269,7 +269,10 @@ def shared_runs(runs_path, dataset_path, source_path, *, dataset: str, source: s
     ``source`` and ``runs_of: source`` beside it, written to ``out_path``. Refused
     (ValueError, nothing written) unless the two datasets' files hold the same scans,
     split and variants: then the experiment is the same, and its runs serve both."""
-    with np.load(dataset_path, allow_pickle=False) as a, np.load(source_path) as b:
+    with (
+        np.load(dataset_path, allow_pickle=False) as a,
+        np.load(source_path, allow_pickle=False) as b,
+    ):
         for key in sorted(set(a.files) | set(b.files)):
             if key == "meta_json":  # names the dataset; the arrays are what runs read
                 continue
